@@ -1,0 +1,1 @@
+"""C-frontier map, goal extraction and path planning."""

@@ -1,0 +1,1 @@
+"""Worlds, lidar and robot simulation, closed-loop runs and the `gpexplore` command line."""

@@ -1,0 +1,128 @@
+"""Load worlds from bitmaps (PNG/PGM with a size or a resolution), ROS map_server YAML, or a built-in name."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import yaml
+from PIL import Image, UnidentifiedImageError
+
+from sim.world import World
+from sim.worlds import BUILTIN_WORLDS
+
+
+def load_world(spec: str | Path, size: tuple[float, float] | None = None,
+               resolution: float | None = None) -> World:
+    """A world from a built-in name (``cave``, ``office``), a ``.yaml`` map or a bitmap."""
+    spec = str(spec)
+    if spec in BUILTIN_WORLDS:
+        if size is not None or resolution is not None:
+            raise ValueError(f"built-in world '{spec}' has its own scale: do not give a size or resolution")
+        return BUILTIN_WORLDS[spec]().world
+    path = Path(spec)
+    if path.suffix.lower() in (".yaml", ".yml"):
+        if size is not None or resolution is not None:
+            raise ValueError(f"{path}: a ROS map YAML carries its own resolution; do not give a size")
+        return load_ros_map(path)
+    if not path.exists():
+        names = ", ".join(sorted(BUILTIN_WORLDS))
+        raise FileNotFoundError(f"{path}: no such map file (built-in worlds: {names})")
+    return load_bitmap(path, size=size, resolution=resolution)
+
+
+def load_bitmap(path: str | Path, size: tuple[float, float] | None = None,
+                resolution: float | None = None, threshold: float = 0.5) -> World:
+    """A world from a floor-plan bitmap: dark pixels (grey level below ``threshold``) are walls.
+
+    Exactly one of ``size`` = (width, height) in meters, stretching the image as Stage does
+    (pixels may become non-square), or ``resolution`` in m/pixel must be given. The image's
+    lower-left corner is at (0, 0), x to the right, y up.
+    """
+    path = Path(path)
+    if (size is None) == (resolution is None):
+        raise ValueError(f"{path}: a bitmap has no scale of its own: give its size in meters "
+                         f"(--size W H) or its resolution (--resolution M_PER_PX), not both")
+    grey = _read_grey(path)
+    h, w = grey.shape
+    if size is not None:
+        width, height = (float(s) for s in size)
+        if not (width > 0 and height > 0):
+            raise ValueError(f"{path}: world size must be positive, got {width} x {height} m")
+        res = (width / w, height / h)
+    else:
+        if not float(resolution) > 0:
+            raise ValueError(f"{path}: resolution must be positive, got {resolution} m/px")
+        res = (float(resolution), float(resolution))
+    return World(np.flipud(grey < threshold), res, (0.0, 0.0), name=path.name)
+
+
+def load_ros_map(path: str | Path) -> World:
+    """A world from a ROS map_server YAML (image, resolution, origin, negate, thresholds, mode).
+
+    Cells whose occupancy probability exceeds ``occupied_thresh`` are walls. Unknown cells
+    (between the thresholds) are walls too: the true world is closed where it is not known.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such map YAML")
+    try:
+        meta = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as err:
+        raise ValueError(f"{path}: not valid YAML: {err}") from None
+    if not isinstance(meta, dict):
+        raise ValueError(f"{path}: expected a mapping of map_server keys, got {type(meta).__name__}")
+
+    def key(name, convert, default=None):
+        if name not in meta:
+            if default is None:
+                raise ValueError(f"{path}: missing key '{name}'")
+            return default
+        try:
+            return convert(meta[name])
+        except (TypeError, ValueError):
+            raise ValueError(f"{path}: key '{name}' has an unreadable value {meta[name]!r}") from None
+
+    image = path.parent / key("image", str)
+    resolution = key("resolution", float)
+    origin = key("origin", lambda o: [float(v) for v in o])
+    negate = key("negate", int, 0)
+    occupied_thresh = key("occupied_thresh", float, 0.65)
+    free_thresh = key("free_thresh", float, 0.196)
+    mode = key("mode", str, "trinary")
+    if not resolution > 0:
+        raise ValueError(f"{path}: key 'resolution' must be positive, got {resolution}")
+    if len(origin) not in (2, 3):
+        raise ValueError(f"{path}: key 'origin' must be [x, y, yaw], got {meta['origin']!r}")
+    if len(origin) == 3 and origin[2] != 0.0:
+        raise ValueError(f"{path}: key 'origin' has yaw {origin[2]}; rotated maps are not supported")
+    if not 0 <= free_thresh <= occupied_thresh <= 1:
+        raise ValueError(f"{path}: need 0 <= free_thresh <= occupied_thresh <= 1, "
+                         f"got {free_thresh}, {occupied_thresh}")
+    if mode not in ("trinary", "scale", "raw"):
+        raise ValueError(f"{path}: key 'mode' must be trinary, scale or raw, got {mode!r}")
+    grey = _read_grey(image)
+    if mode == "raw":
+        occupied = grey * 255.0 > 100.0 * occupied_thresh
+    else:
+        p = grey if negate else 1.0 - grey
+        occupied = p > free_thresh  # occupied, and unknown treated as occupied
+    return World(np.flipud(occupied), (resolution, resolution), tuple(origin[:2]), name=path.name)
+
+
+def _read_grey(path: Path) -> np.ndarray:
+    """(h, w) grey levels in [0, 1], row 0 at the top of the image."""
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such image file")
+    try:
+        with Image.open(path) as image:
+            if image.mode in ("RGBA", "LA", "P"):
+                image = image.convert("RGBA")
+                background = Image.new("RGBA", image.size, "white")
+                image = Image.alpha_composite(background, image)
+            grey = np.asarray(image.convert("L"), dtype=float) / 255.0
+    except (UnidentifiedImageError, OSError) as err:
+        raise ValueError(f"{path}: not a readable image: {err}") from None
+    if grey.size == 0:
+        raise ValueError(f"{path}: image is empty")
+    return grey

@@ -1,0 +1,181 @@
+"""Reader for CARMEN laser logs (plain or gzipped): FLASER, ROBOTLASER1, ODOM and PARAM messages.
+
+Field of view conventions (FLASER carries none): the scan spans 180 degrees starting at -90 degrees
+(the robot's right), counter-clockwise. An odd beam count (181, 361) includes both ends, a step of
+180/(n-1) degrees; an even count (180, 360) has a step of 180/n degrees. ROBOTLASER1 carries its
+own start angle and angular resolution.
+
+"Corrected" logs written by SLAM (e.g. GMapping's) hold SLAM poses in FLASER and the raw odometry
+in ODOM lines; raw logs hold odometry in FLASER and no ODOM lines. ``LaserRecord.odometry`` is the
+raw odometry in both cases: the most recent ODOM pose before the scan in file order when the log
+has ODOM lines, the FLASER odometry slot otherwise. GMapping also writes, right after each scan,
+an ODOM line with timestamp 0 that repeats the corrected pose: such lines are not odometry and
+are ignored.
+"""
+
+from __future__ import annotations
+
+import gzip
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import gtsam
+import numpy as np
+
+from slam.scan import LaserScan, fov_angles
+
+#: Readings at or beyond this are "no return" in CARMEN logs (they hold 81.83 or 81.91).
+DEFAULT_MAX_RANGE = 80.0
+
+
+class LogFormatError(ValueError):
+    """A malformed line in a log; the message names the file and line."""
+
+
+@dataclass(frozen=True)
+class LaserRecord:
+    """One laser message of a log.
+
+    Attributes:
+        line: 1-based line number in the file.
+        scan: the ranges, beam angles and ipc timestamp.
+        pose: the pose logged with the scan (odometry in raw logs, SLAM pose in corrected logs).
+        odometry: the raw wheel odometry at the scan.
+    """
+
+    line: int
+    scan: LaserScan
+    pose: gtsam.Pose2
+    odometry: gtsam.Pose2
+
+
+class CarmenLog:
+    """The laser messages of a CARMEN log, in file order: ``len(log)``, ``log[i]``, iteration.
+
+    Args:
+        path: a ``.clf``/``.log`` file, optionally gzipped (``.gz``).
+        max_range: readings at or beyond this many meters are "no return".
+        skip_malformed: skip malformed laser/odometry lines (counted in ``skipped``) instead
+            of raising ``LogFormatError``.
+    """
+
+    def __init__(self, path: str | Path, max_range: float = DEFAULT_MAX_RANGE,
+                 skip_malformed: bool = False):
+        self.path = Path(path)
+        if not self.path.is_file():
+            raise FileNotFoundError(f"{self.path}: no such log file")
+        if not max_range > 0:
+            raise ValueError(f"max_range must be positive, got {max_range}")
+        self.max_range = float(max_range)
+        self.params: dict[str, str] = {}
+        self.skipped: list[tuple[int, str]] = []
+        self.has_odom_lines = False
+        self.records: list[LaserRecord] = []
+        self._read(skip_malformed)
+        if not self.records:
+            raise LogFormatError(f"{self.path}: no laser messages (FLASER or ROBOTLASER1) found")
+
+    def __len__(self) -> int:
+        return len(self.records)
+
+    def __getitem__(self, i: int) -> LaserRecord:
+        return self.records[i]
+
+    def __iter__(self):
+        return iter(self.records)
+
+    @property
+    def duration(self) -> float:
+        """Seconds between the first and last scan."""
+        return self.records[-1].scan.timestamp - self.records[0].scan.timestamp
+
+    def _read(self, skip_malformed: bool) -> None:
+        opener = gzip.open if self.path.suffix == ".gz" else open
+        last_odom: gtsam.Pose2 | None = None
+        after_laser = False
+        try:
+            with opener(self.path, "rt", errors="replace") as f:
+                for number, text in enumerate(f, start=1):
+                    fields = text.split()
+                    if not fields or fields[0].startswith("#"):
+                        continue
+                    try:
+                        kind = fields[0]
+                        if kind == "ODOM":
+                            odom, stamp = _parse_odom(fields)
+                            if not (stamp == 0.0 and after_laser):
+                                last_odom = odom
+                                self.has_odom_lines = True
+                        after_laser = kind in ("FLASER", "ROBOTLASER1")
+                        if after_laser:
+                            parse = _parse_flaser if kind == "FLASER" else _parse_robotlaser
+                            scan, pose, odom = parse(fields, self.max_range)
+                            odometry = last_odom if self.has_odom_lines else odom
+                            self.records.append(LaserRecord(number, scan, pose, odometry))
+                        elif kind == "PARAM" and len(fields) >= 3:
+                            self.params[fields[1]] = fields[2]
+                    except (ValueError, IndexError) as err:
+                        message = f"{self.path}:{number}: {err}"
+                        if not skip_malformed:
+                            raise LogFormatError(message) from None
+                        self.skipped.append((number, str(err)))
+        except (OSError, EOFError, gzip.BadGzipFile) as err:
+            raise LogFormatError(f"{self.path}: cannot read log: {err}") from None
+
+
+def _floats(fields: list[str], what: str) -> np.ndarray:
+    try:
+        values = np.array(fields, dtype=float)
+    except ValueError:
+        raise ValueError(f"{what} has a non-numeric field") from None
+    return values
+
+
+def _pose(values) -> gtsam.Pose2:
+    x, y, theta = (float(v) for v in values)
+    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(theta)):
+        raise ValueError(f"pose ({x}, {y}, {theta}) is not finite")
+    return gtsam.Pose2(x, y, theta)
+
+
+def _parse_odom(fields: list[str]) -> tuple[gtsam.Pose2, float]:
+    # ODOM x y theta tv rv accel ipc_timestamp ipc_hostname logger_timestamp
+    if len(fields) < 8:
+        raise ValueError(f"ODOM line has {len(fields)} fields, expected at least 8")
+    values = _floats(fields[1:8], "ODOM line")
+    return _pose(values[0:3]), float(values[6])
+
+
+def _parse_flaser(fields: list[str], max_range: float):
+    # FLASER n r_1..r_n x y theta odom_x odom_y odom_theta ipc_timestamp ipc_hostname logger_ts
+    n = int(fields[1])
+    expected = n + 11
+    if n < 1 or len(fields) != expected:
+        raise ValueError(f"FLASER line has {len(fields) - 11} ranges for n = {n} "
+                         f"({len(fields)} fields, expected {expected})")
+    ranges = _floats(fields[2:2 + n], "FLASER ranges")
+    tail = _floats(fields[2 + n:2 + n + 7], "FLASER pose/timestamp")
+    angles = fov_angles(n, math.pi, include_end=n % 2 == 1)
+    scan = LaserScan(ranges, angles, max_range, timestamp=float(tail[6]))
+    return scan, _pose(tail[0:3]), _pose(tail[3:6])
+
+
+def _parse_robotlaser(fields: list[str], max_range: float):
+    # ROBOTLASER1 type start_angle fov angular_res max_range accuracy remission_mode n r_1..r_n
+    #   m rem_1..rem_m laser_x laser_y laser_theta robot_x robot_y robot_theta tv rv
+    #   forward_safety_dist side_safety_dist turn_axis ipc_timestamp ipc_hostname logger_ts
+    start, _, resolution, sensor_max = _floats(fields[2:6], "ROBOTLASER1 header")
+    n = int(fields[8])
+    ranges = _floats(fields[9:9 + n], "ROBOTLASER1 ranges")
+    m = int(fields[9 + n])
+    rest = fields[10 + n + m:]
+    if n < 1 or m < 0 or len(rest) != 15:
+        raise ValueError(f"ROBOTLASER1 line has {len(fields)} fields, inconsistent with "
+                         f"n = {n} ranges and m = {m} remissions")
+    tail = _floats(rest[:12], "ROBOTLASER1 poses")
+    timestamp = float(rest[12])
+    angles = start + resolution * np.arange(n)
+    effective_max = min(max_range, sensor_max) if sensor_max > 0 else max_range
+    scan = LaserScan(ranges, angles, effective_max, timestamp=timestamp)
+    return scan, _pose(tail[0:3]), _pose(tail[3:6])
