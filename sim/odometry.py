@@ -20,10 +20,10 @@ class OdometryNoise(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    alpha1: float = Field(0.04**2, ge=0, description="rotation noise from rotation")
-    alpha2: float = Field(0.01**2, ge=0, description="rotation noise from translation (rad²/m²)")
-    alpha3: float = Field(0.03**2, ge=0, description="translation noise from translation")
-    alpha4: float = Field(0.005**2, ge=0, description="translation noise from rotation (m²/rad²)")
+    alpha1: float = Field(0.05**2, ge=0, description="rotation noise from rotation")
+    alpha2: float = Field(0.05**2, ge=0, description="rotation noise from translation (rad²/m²)")
+    alpha3: float = Field(0.05**2, ge=0, description="translation noise from translation")
+    alpha4: float = Field(0.01**2, ge=0, description="translation noise from rotation (m²/rad²)")
 
 
 class Odometry:

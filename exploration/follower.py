@@ -1,0 +1,71 @@
+"""Path following for a unicycle within its speed and turn-rate limits (pure pursuit)."""
+
+from __future__ import annotations
+
+import math
+
+import gtsam
+import numpy as np
+
+
+class PathFollower:
+    """Pure pursuit on a polyline path: steer to a point ``lookahead`` meters ahead on the path.
+
+    The robot turns on the spot when the carrot is more than ``turn_in_place`` radians off its
+    heading, and slows down when turning hard, so it never cuts corners by much.
+
+    Args:
+        max_speed: m/s.
+        max_turn_rate: rad/s.
+        lookahead: meters.
+        tolerance: meters; the goal counts as reached within it.
+    """
+
+    def __init__(self, max_speed: float, max_turn_rate: float, lookahead: float = 0.4,
+                 tolerance: float = 0.15, turn_in_place: float = math.radians(45)):
+        if not (max_speed > 0 and max_turn_rate > 0 and lookahead > 0 and tolerance > 0):
+            raise ValueError("speed, turn rate, lookahead and tolerance must all be positive")
+        self.max_speed = max_speed
+        self.max_turn_rate = max_turn_rate
+        self.lookahead = lookahead
+        self.tolerance = tolerance
+        self.turn_in_place = turn_in_place
+
+    def command(self, pose: gtsam.Pose2, path: np.ndarray) -> tuple[float, float, bool]:
+        """(v, w, reached) for the robot at ``pose`` following ``path`` (k, 2), in m/s, rad/s."""
+        path = np.asarray(path, dtype=float).reshape(-1, 2)
+        here = np.array([pose.x(), pose.y()])
+        if np.linalg.norm(path[-1] - here) < self.tolerance:
+            return 0.0, 0.0, True
+        carrot = self._carrot(here, path)
+        local = pose.transformTo(gtsam.Point2(*carrot))
+        bearing = math.atan2(local[1], local[0])
+        w = float(np.clip(2.0 * bearing, -self.max_turn_rate, self.max_turn_rate))
+        if abs(bearing) > self.turn_in_place:
+            return 0.0, w, False
+        distance = float(np.linalg.norm(path[-1] - here))
+        v = min(self.max_speed, distance) * math.cos(bearing)
+        return v, w, False
+
+    def _carrot(self, here: np.ndarray, path: np.ndarray) -> np.ndarray:
+        """The first point on the path, after the point closest to the robot, ``lookahead`` away."""
+        if len(path) == 1:
+            return path[0]
+        a, b = path[:-1], path[1:]
+        ab = b - a
+        length2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12)
+        t = np.clip(np.einsum("ij,ij->i", here - a, ab) / length2, 0.0, 1.0)
+        nearest = a + t[:, None] * ab
+        k = int(np.argmin(np.linalg.norm(nearest - here, axis=1)))
+        remaining = np.vstack([nearest[k], path[k + 1:]])
+        for p, q in zip(remaining[:-1], remaining[1:]):
+            # the point on segment pq at distance lookahead from here, if any
+            d = q - p
+            f = p - here
+            qa, qb, qc = d @ d, 2 * f @ d, f @ f - self.lookahead**2
+            disc = qb * qb - 4 * qa * qc
+            if qa > 0 and disc >= 0:
+                s = (-qb + math.sqrt(disc)) / (2 * qa)
+                if 0.0 <= s <= 1.0:
+                    return p + s * d
+        return path[-1]
