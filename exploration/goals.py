@@ -1,0 +1,115 @@
+"""Goal extraction (Section VI, eq. 11): threshold F, cluster with k-means, pick the best cluster."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+from sklearn.cluster import KMeans
+
+from exploration.paths import best_cell_near, near_distance
+
+
+class GoalConfig(BaseModel):
+    """How frontier points become goals."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    threshold: float = Field(0.6, description="keep points with F above this: the desired sensitivity")
+    min_points: int = Field(10, ge=1, description="fewer frontier points than this: no frontier left")
+    points_per_cluster: int = Field(40, ge=1, description="k = ceil(n / points_per_cluster)")
+    alpha: float = Field(10.0, ge=0, description="weight of information against sqrt(distance)")
+    reach: float = Field(0.6, gt=0, description="meters from a frontier point to a goal cell")
+    blacklist_radius: float = Field(0.75, gt=0, description="meters around a failed goal")
+
+
+@dataclass(frozen=True)
+class FrontierCluster:
+    """One k-means cluster of frontier points, scored by eq. 11.
+
+    ``goal`` is the reachable cell nearest (by path) to the cluster, in meters, or None when
+    no passable cell lies within ``reach`` of any of its points; ``distance`` is the path
+    length to it (inf when unreachable).
+    """
+
+    points: np.ndarray
+    centroid: np.ndarray
+    mean_value: float
+    distance: float
+    goal: np.ndarray | None
+    utility: float
+
+
+class Blacklist:
+    """Goals that could not be reached: frontier points near them are not offered again."""
+
+    def __init__(self, radius: float):
+        self.radius = radius
+        self.centres: list[np.ndarray] = []
+
+    def add(self, xy) -> None:
+        self.centres.append(np.asarray(xy, dtype=float))
+
+    def covers(self, points: np.ndarray) -> np.ndarray:
+        """(n,) bool: points within ``radius`` of a blacklisted goal."""
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        if not self.centres:
+            return np.zeros(len(points), dtype=bool)
+        d = np.linalg.norm(points[:, None, :] - np.array(self.centres)[None], axis=2)
+        return (d < self.radius).any(axis=1)
+
+
+def utility(mean_value: float, size: int, total: int, distance: float, alpha: float) -> float:
+    """Eq. 11: α·m̄ᵢ·nᵢ/N − √dᵢ."""
+    return alpha * mean_value * size / total - math.sqrt(distance)
+
+
+def extract_goals(frontier: np.ndarray, origin, resolution: float, dist: np.ndarray,
+                  config: GoalConfig, blacklist: Blacklist | None = None,
+                  seed: int = 0) -> list[FrontierCluster]:
+    """Frontier clusters, best first (eq. 11); empty when no significant frontier is left.
+
+    Args:
+        frontier: (h, w) C-frontier map F.
+        origin: (x, y) of the centre of cell (0, 0), meters.
+        resolution: cell size, meters.
+        dist: (h, w) path length in meters from the robot to each cell (inf if unreachable),
+            e.g. ``paths.distance_field`` over the passable cells.
+        config: threshold, cluster size, α, reach.
+        blacklist: goals to avoid.
+        seed: for k-means.
+    """
+    iy, ix = np.nonzero(frontier > config.threshold)
+    points = np.asarray(origin) + resolution * np.column_stack([ix, iy])
+    values = frontier[iy, ix]
+    if blacklist is not None:
+        keep = ~blacklist.covers(points)
+        points, values, ix, iy = points[keep], values[keep], ix[keep], iy[keep]
+    if len(points) < config.min_points:
+        return []
+    k = math.ceil(len(points) / config.points_per_cluster)
+    labels = KMeans(n_clusters=k, n_init=1, random_state=seed).fit_predict(points)
+    # path length to the best reachable cell within reach of each frontier point
+    radius = max(1, round(config.reach / resolution))
+    near = near_distance(dist, radius)
+    clusters = []
+    for label in range(k):
+        members = labels == label
+        if not members.any():
+            continue
+        d_points = near[iy[members], ix[members]]
+        best = int(np.argmin(d_points))
+        distance = float(d_points[best])
+        goal = None
+        if np.isfinite(distance):
+            cell = best_cell_near(dist, (ix[members][best], iy[members][best]), radius)
+            goal = np.asarray(origin) + resolution * cell
+        mean_value = float(values[members].mean())
+        score = utility(mean_value, int(members.sum()), len(points), distance, config.alpha)
+        clusters.append(FrontierCluster(points[members], points[members].mean(axis=0), mean_value,
+                                        distance, goal, score))
+    clusters.sort(key=lambda c: -c.utility)
+    return clusters
+

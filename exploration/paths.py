@@ -1,0 +1,100 @@
+"""Shortest paths on a grid: a Dijkstra distance field from the robot, and paths down it.
+
+One field per planning cycle gives both the path length dᵢ to every frontier cluster (eq. 11)
+and the path to the chosen goal.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+
+import numba
+import numpy as np
+from scipy import ndimage
+
+_STEPS = np.array([[1, 0], [-1, 0], [0, 1], [0, -1], [1, 1], [1, -1], [-1, 1], [-1, -1]])
+
+
+@numba.njit(cache=True)
+def _dijkstra(passable, start_iy, start_ix, cell, steps, dist, parent):
+    h, w = passable.shape
+    dist[start_iy, start_ix] = 0.0
+    heap = [(0.0, start_iy * w + start_ix)]
+    while heap:
+        d, flat = heapq.heappop(heap)
+        iy, ix = flat // w, flat % w
+        if d > dist[iy, ix]:
+            continue
+        for k in range(steps.shape[0]):
+            ny, nx = iy + steps[k, 1], ix + steps[k, 0]
+            if ny < 0 or nx < 0 or ny >= h or nx >= w or not passable[ny, nx]:
+                continue
+            diagonal = steps[k, 0] != 0 and steps[k, 1] != 0
+            # no corner cutting: a diagonal step needs both side cells free
+            if diagonal and not (passable[iy, nx] and passable[ny, ix]):
+                continue
+            nd = d + (cell * math.sqrt(2.0) if diagonal else cell)
+            if nd < dist[ny, nx]:
+                dist[ny, nx] = nd
+                parent[ny, nx] = flat
+                heapq.heappush(heap, (nd, ny * w + nx))
+
+
+def distance_field(passable: np.ndarray, start: tuple[int, int], cell: float):
+    """Path lengths in meters from ``start`` = (ix, iy) over ``passable`` cells (8-connected).
+
+    Args:
+        passable: (h, w) bool, cells the robot's centre may occupy.
+        start: the robot's cell (ix, iy); it is always treated as passable.
+        cell: cell size in meters.
+
+    Returns:
+        dist: (h, w) meters, inf where unreachable; parent: (h, w) flat index of the previous
+        cell on a shortest path (-1 at the start and unreachable cells).
+    """
+    passable = np.array(passable, dtype=bool)
+    h, w = passable.shape
+    ix, iy = int(start[0]), int(start[1])
+    if not (0 <= ix < w and 0 <= iy < h):
+        raise ValueError(f"start cell ({ix}, {iy}) is outside the {w} x {h} grid")
+    passable[iy, ix] = True
+    dist = np.full((h, w), np.inf)
+    parent = np.full((h, w), -1, dtype=np.int64)
+    _dijkstra(passable, iy, ix, float(cell), _STEPS, dist, parent)
+    return dist, parent
+
+
+def path_to(parent: np.ndarray, goal: tuple[int, int]) -> np.ndarray:
+    """(k, 2) cells (ix, iy) from the field's start to ``goal``, both included."""
+    h, w = parent.shape
+    flat = int(goal[1]) * w + int(goal[0])
+    cells = [flat]
+    while parent.flat[flat] >= 0:
+        flat = int(parent.flat[flat])
+        cells.append(flat)
+    cells = np.array(cells[::-1])
+    return np.column_stack([cells % w, cells // w])
+
+
+def _disc(radius: int) -> tuple[np.ndarray, np.ndarray]:
+    yy, xx = np.mgrid[-radius:radius + 1, -radius:radius + 1]
+    disc = xx**2 + yy**2 <= radius**2
+    return disc, np.column_stack([xx[disc], yy[disc]])
+
+
+def near_distance(dist: np.ndarray, radius: int) -> np.ndarray:
+    """(h, w) the smallest ``dist`` within ``radius`` cells of each cell: the path length to
+    a place from which the robot is that close to the cell."""
+    disc, _ = _disc(radius)
+    return ndimage.minimum_filter(dist, footprint=disc, mode="constant", cval=np.inf)
+
+
+def best_cell_near(dist: np.ndarray, cell, radius: int) -> np.ndarray:
+    """The cell (ix, iy) within ``radius`` cells of ``cell`` with the smallest ``dist``."""
+    h, w = dist.shape
+    candidates = np.asarray(cell) + _disc(radius)[1]
+    inside = ((candidates[:, 0] >= 0) & (candidates[:, 0] < w)
+              & (candidates[:, 1] >= 0) & (candidates[:, 1] < h))
+    candidates = candidates[inside]
+    return candidates[np.argmin(dist[candidates[:, 1], candidates[:, 0]])]

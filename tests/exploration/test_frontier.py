@@ -1,0 +1,56 @@
+import numpy as np
+import pytest
+
+from exploration.frontier import frontier_map, l1_gradient
+
+RES = 0.1
+
+
+def grid(n=120):
+    c = (np.arange(n) + 0.5) * RES
+    return np.meshgrid(c, c)
+
+
+def test_l1_gradient_of_a_plane():
+    x, y = grid()
+    g = l1_gradient(2.0 * x - 3.0 * y, RES)
+    np.testing.assert_allclose(g, 5.0, atol=1e-9)
+
+
+def test_free_disc_in_unknown_space_gives_its_rim():
+    x, y = grid()
+    r = np.hypot(x - 6.0, y - 6.0)
+    # free (0.1) inside 3 m, unknown (0.5) outside, a smooth step 0.2 m wide
+    prob = 0.5 - 0.4 / (1 + np.exp((r - 3.0) / 0.05))
+    prob_occ = np.full_like(prob, 0.5)
+    f = frontier_map(prob, prob_occ, RES, beta=2.5)
+    rim = np.abs(r - 3.0) < 0.1
+    assert f[rim].min() > 0.8
+    assert np.abs(r[np.unravel_index(np.argmax(f), f.shape)] - 3.0) < 0.1
+    assert np.abs(f[(r < 2.0) | (r > 4.0)]).max() < 1e-3  # flat inside and outside
+
+
+def test_obstacles_give_no_frontier():
+    x, y = grid()
+    # a wall across free space: high in Λ and in Λo
+    wall = np.exp(-((x - 6.0) / 0.1) ** 2)
+    prob = 0.1 + 0.85 * wall
+    prob_occ = 0.5 + 0.45 * wall
+    f = frontier_map(prob, prob_occ, RES, beta=2.5)
+    assert f.max() <= 1e-9
+    # the same Λ step without the obstacle evidence is a frontier
+    assert frontier_map(prob, np.full_like(prob, 0.5), RES).max() > 1.0
+
+
+def test_units_are_per_meter():
+    x, y = grid()
+    prob = np.clip(0.5 - 0.2 * (x - 6.0), 0.1, 0.5)
+    occ = np.full_like(prob, 0.5)
+    coarse = frontier_map(prob[::2, ::2], occ[::2, ::2], 2 * RES, smoothing=0)
+    fine = frontier_map(prob, occ, RES, smoothing=0)
+    assert coarse[30, 28] == pytest.approx(fine[60, 56], rel=1e-6)
+
+
+def test_shape_mismatch_is_rejected():
+    with pytest.raises(ValueError, match="same shape"):
+        frontier_map(np.zeros((3, 3)), np.zeros((3, 4)), RES)

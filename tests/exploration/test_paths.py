@@ -1,0 +1,49 @@
+import math
+
+import numpy as np
+import pytest
+
+from exploration.paths import best_cell_near, distance_field, near_distance, path_to
+
+
+def test_open_grid_distances_are_octile():
+    dist, _ = distance_field(np.ones((50, 50), dtype=bool), (0, 0), 0.1)
+    assert dist[0, 30] == pytest.approx(3.0)
+    assert dist[20, 20] == pytest.approx(2.0 * math.sqrt(2.0))
+    assert dist[20, 30] == pytest.approx(10 * 0.1 + 20 * 0.1 * math.sqrt(2.0))
+
+
+def test_path_goes_around_a_wall_and_never_through_blocked_cells():
+    passable = np.ones((40, 40), dtype=bool)
+    passable[0:30, 20] = False  # a wall from the bottom with a gap at the top
+    dist, parent = distance_field(passable, (5, 5), 1.0)
+    path = path_to(parent, (35, 5))
+    assert tuple(path[0]) == (5, 5) and tuple(path[-1]) == (35, 5)
+    assert passable[path[:, 1], path[:, 0]].all()
+    assert path[:, 1].max() >= 30  # went over the wall
+    steps = np.abs(np.diff(path, axis=0))
+    assert steps.max() == 1
+    length = np.sum(np.where(steps.sum(axis=1) == 2, math.sqrt(2), 1.0))
+    assert length == pytest.approx(dist[5, 35])
+
+
+def test_no_corner_cutting_and_unreachable_is_inf():
+    passable = np.ones((10, 10), dtype=bool)
+    passable[:, 5] = False
+    dist, parent = distance_field(passable, (1, 1), 1.0)
+    assert np.isinf(dist[:, 6:]).all() and np.all(parent[:, 6:] == -1)
+    diagonal = np.ones((3, 3), dtype=bool)
+    diagonal[0, 1] = diagonal[1, 0] = False
+    dist, _ = distance_field(diagonal, (0, 0), 1.0)
+    assert np.isinf(dist[1, 1])
+
+
+def test_near_distance_and_best_cell():
+    passable = np.zeros((20, 20), dtype=bool)
+    passable[10, :] = True
+    dist, _ = distance_field(passable, (0, 10), 1.0)
+    near = near_distance(dist, 2)
+    assert near[12, 5] == pytest.approx(5.0)  # from (5, 10), the only row cell within 2 of (5, 12)
+    assert np.isinf(near[13, 5])
+    assert tuple(best_cell_near(dist, (5, 12), 2)) == (5, 10)
+    assert near[11, 5] == pytest.approx(4.0)  # (4, 10) is within 2 cells of (5, 11)
