@@ -1,0 +1,100 @@
+"""Typed configuration of the continuous occupancy map, grouped the way the code is grouped."""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, Field, model_validator
+
+
+class KernelConfig(BaseModel):
+    """Initial hyperparameters and their bounds for one GP (eqs. 5-6), meters.
+
+    The obstacle GP uses the Matérn kernel (eq. 5) only and ignores ``se_length``; the free
+    GP multiplies a squared exponential (eq. 6) of length ``se_length`` by the Matérn.
+    """
+
+    nu: float = Field(1.5, description="Matérn smoothness: 0.5, 1.5 or 2.5")
+    signal_var: float = Field(1.0, gt=0, description="prior variance of the latent function "
+                              "(the scale of the ±1 targets; not fitted)")
+    matern_length: float = Field(0.3, gt=0, description="Matérn characteristic length κ, m")
+    se_length: float = Field(1.0, gt=0, description="squared-exponential length κ (free GP), m")
+    noise_var: float = Field(0.05, gt=0, description="observation noise variance σn²")
+    length_bounds: tuple[float, float] = Field((0.05, 2.0), description="bounds of the fitted "
+                                               "Matérn length, m")
+    se_bounds: tuple[float, float] = Field((0.1, 2.0), description="bounds of the fitted SE "
+                                           "length (free GP), m")
+    noise_floor: float = Field(0.01, gt=0, description="lowest fitted noise variance (+1-only "
+                               "targets drive the fitted noise to zero without a floor)")
+
+    @model_validator(mode="after")
+    def _check(self):
+        if self.nu not in (0.5, 1.5, 2.5):
+            raise ValueError(f"Matérn nu must be 0.5, 1.5 or 2.5, got {self.nu}")
+        for name in ("length_bounds", "se_bounds"):
+            lo, hi = getattr(self, name)
+            if not 0 < lo < hi:
+                raise ValueError(f"{name} must satisfy 0 < lo < hi, got {getattr(self, name)}")
+        return self
+
+
+class TrainingConfig(BaseModel):
+    """How a keyframe becomes training points (Section IV-A)."""
+
+    max_range: float = Field(10.0, gt=0, description="meters; hits beyond count as no return "
+                             "and give free points up to this range")
+    free_step: float = Field(0.3, gt=0, description="spacing of free points along a beam, m")
+    free_margin: float = Field(0.15, ge=0, description="free points stop this far before a hit, m")
+    free_end: bool = Field(False, description="also put a free point at each beam's last free "
+                           "point (free_margin before the hit, or the range limit)")
+    voxel: float = Field(0.1, gt=0, description="hits are thinned to one per voxel of this "
+                         "size, m")
+    free_voxel: float = Field(0.3, gt=0, description="free points are thinned to one per voxel "
+                              "of this size, m")
+
+
+class QueryConfig(BaseModel):
+    """The local query set (Section IV-A) and the local GPs that answer it."""
+
+    resolution: float = Field(0.1, gt=0, description="map cell size, m")
+    window: float = Field(20.0, gt=0, description="side of the square query window centred on "
+                          "the sensor, m (the perception field)")
+    near: float = Field(0.2, gt=0, description="only cells within this distance (m) of a training "
+                        "point of the keyframe are queried")
+    block: int = Field(5, ge=1, description="local GP blocks are block x block cells")
+    margin: float = Field(1.0, ge=0, description="a block's GP uses training points up to this far "
+                          "(m) outside the block")
+    max_train: int = Field(16, ge=4, description="cap on training points per block and GP (the "
+                           "nearest ones to the block centre)")
+    history: int = Field(2, ge=0, description="previous keyframes, nearest to the sensor, whose "
+                         "points join the training set")
+
+
+class SquashConfig(BaseModel):
+    """Logistic squashing, eq. 7."""
+
+    gamma: float = Field(10.0, gt=0, description="γ: weight w = γ·√λ")
+
+
+class DriftConfig(BaseModel):
+    """Map drift check, Section VII."""
+
+    threshold: float = Field(0.01, gt=0, description="cumulated Jensen-Shannon divergence (nats "
+                             "per known cell, summed over updates) that calls for regeneration")
+    tolerance: float = Field(0.008, ge=0, description="per-update divergence below this is sensor "
+                             "noise and is not cumulated (nats per cell)")
+    known: float = Field(0.1, ge=0, lt=0.5, description="a cell counts as known when |Λ-0.5| > this")
+
+
+class COMConfig(BaseModel):
+    """Everything the continuous occupancy map needs; the defaults work out of the box."""
+
+    obstacle: KernelConfig = KernelConfig(matern_length=0.2, length_bounds=(0.05, 0.3))
+    free: KernelConfig = KernelConfig(matern_length=0.3, length_bounds=(0.05, 0.5),
+                                      se_length=0.5, se_bounds=(0.1, 1.0))
+    fit_hyperparameters: bool = Field(True, description="fit θo, θf on the first keyframe by "
+                                      "maximising the marginal likelihood, then keep them fixed")
+    fit_max_points: int = Field(400, ge=10, description="points per GP used for that fit")
+    training: TrainingConfig = TrainingConfig()
+    query: QueryConfig = QueryConfig()
+    squash: SquashConfig = SquashConfig()
+    drift: DriftConfig = DriftConfig()
+    seed: int = Field(0, description="seed of every random draw (subsampling for the fit)")

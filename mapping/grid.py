@@ -1,0 +1,111 @@
+"""The frame of a growing map grid: integer cells aligned to multiples of the resolution."""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: The grid grows by at least this many cells on a side, so that growth is rare.
+GROW = 64
+
+
+class GridFrame:
+    """Cells ``c = floor(x / resolution)`` in global integer coordinates; the stored window
+    covers columns ``ix0 .. ix0 + w - 1`` and rows ``iy0 .. iy0 + h - 1`` (row 0 at the bottom).
+
+    Args:
+        resolution: cell size in meters.
+    """
+
+    def __init__(self, resolution: float):
+        if not (np.isfinite(resolution) and resolution > 0):
+            raise ValueError(f"grid resolution must be positive, got {resolution}")
+        self.resolution = float(resolution)
+        self.ix0 = self.iy0 = 0
+        self.shape = (0, 0)  # (h, w)
+
+    @property
+    def empty(self) -> bool:
+        return self.shape[0] == 0
+
+    @property
+    def origin(self) -> np.ndarray:
+        """(2,) world coordinates of the centre of stored cell (0, 0), meters."""
+        return (np.array([self.ix0, self.iy0]) + 0.5) * self.resolution
+
+    @property
+    def extent(self) -> tuple[float, float, float, float]:
+        """(xmin, xmax, ymin, ymax) of the stored cells' outer edges, meters."""
+        h, w = self.shape
+        r = self.resolution
+        return self.ix0 * r, (self.ix0 + w) * r, self.iy0 * r, (self.iy0 + h) * r
+
+    def cells(self, xy: np.ndarray) -> np.ndarray:
+        """(..., 2) points -> (..., 2) global integer cells (cx, cy)."""
+        return np.floor(np.asarray(xy, float) / self.resolution).astype(np.int64)
+
+    def centres(self, cells: np.ndarray) -> np.ndarray:
+        """(..., 2) global cells -> (..., 2) cell centres, meters."""
+        return (np.asarray(cells) + 0.5) * self.resolution
+
+    def flat(self, cells: np.ndarray) -> np.ndarray:
+        """(k, 2) global cells inside the stored window -> (k,) flat indices into (h, w)."""
+        return (cells[:, 1] - self.iy0) * self.shape[1] + (cells[:, 0] - self.ix0)
+
+    def inside(self, cells: np.ndarray) -> np.ndarray:
+        """(..., 2) global cells -> (...,) bool, True where stored."""
+        h, w = self.shape
+        cx, cy = cells[..., 0] - self.ix0, cells[..., 1] - self.iy0
+        return (cx >= 0) & (cx < w) & (cy >= 0) & (cy < h)
+
+    def ensure(self, lo: np.ndarray, hi: np.ndarray):
+        """Grow to hold global cells ``lo`` .. ``hi`` (inclusive, (2,) each).
+
+        Returns:
+            None when nothing changed, else ((rows, cols) before, (rows, cols) after) padding.
+        """
+        lo, hi = np.asarray(lo, np.int64), np.asarray(hi, np.int64)
+        if self.empty:
+            self.ix0, self.iy0 = int(lo[0]) - GROW // 2, int(lo[1]) - GROW // 2
+            w, h = int(hi[0] - lo[0]) + 1 + GROW, int(hi[1] - lo[1]) + 1 + GROW
+            old = self.shape
+            self.shape = (h, w)
+            return (0, 0), (h - old[0], w - old[1])
+        h, w = self.shape
+        left = max(0, self.ix0 - int(lo[0]))
+        right = max(0, int(hi[0]) - (self.ix0 + w - 1))
+        bottom = max(0, self.iy0 - int(lo[1]))
+        top = max(0, int(hi[1]) - (self.iy0 + h - 1))
+        if not (left or right or bottom or top):
+            return None
+        left, right = (left and left + GROW), (right and right + GROW)
+        bottom, top = (bottom and bottom + GROW), (top and top + GROW)
+        self.ix0 -= left
+        self.iy0 -= bottom
+        self.shape = (h + bottom + top, w + left + right)
+        return (bottom, left), (top, right)
+
+    def sample(self, grid: np.ndarray, xy: np.ndarray, outside: float = 0.5,
+               bilinear: bool = False) -> np.ndarray:
+        """Values of ``grid`` (h, w) at points ``xy`` (..., 2): the value of the cell holding
+        each point, or with ``bilinear`` the bilinear interpolation between cell centres (a
+        continuous map's reading); ``outside`` off the stored window."""
+        if bilinear:
+            return self._bilinear(grid, xy, outside)
+        cells = self.cells(xy)
+        ok = self.inside(cells)
+        out = np.full(cells.shape[:-1], outside, dtype=float)
+        c = cells[ok]
+        out[ok] = grid[c[:, 1] - self.iy0, c[:, 0] - self.ix0]
+        return out
+
+    def _bilinear(self, grid: np.ndarray, xy: np.ndarray, outside: float) -> np.ndarray:
+        u = np.asarray(xy, float) / self.resolution - 0.5          # continuous cell coordinates
+        c0 = np.floor(u).astype(np.int64)
+        f = u - c0
+        out = np.zeros(u.shape[:-1])
+        for dx in (0, 1):
+            for dy in (0, 1):
+                c = c0 + (dx, dy)
+                w = (f[..., 0] if dx else 1 - f[..., 0]) * (f[..., 1] if dy else 1 - f[..., 1])
+                out += w * self.sample(grid, c * self.resolution + 0.5 * self.resolution, outside)
+        return out

@@ -1,0 +1,133 @@
+"""The continuous occupancy map on simulated worlds: accuracy, regeneration, bad input."""
+
+import gtsam
+import numpy as np
+import pytest
+from pydantic import ValidationError
+
+from mapping.com import ContinuousOccupancyMap
+from mapping.config import COMConfig, TrainingConfig
+from mapping.metrics import roc_auc
+from mapping.training import beam_samples
+from slam.scan import LaserScan
+
+from simworlds import room_tour, scans_at
+
+
+def auc_vs_truth(com, world, margin=0.1):
+    """AUC of Λ over the observed cells of the COM against the true map, leaving out the
+    ``margin`` band on each side of the wall surfaces: hits straddle the surface, so cells
+    there hold both kinds of evidence. Occupied cells are the observable skin of the walls
+    (within ``margin`` of free space), free cells those at least ``margin`` from walls."""
+    iy, ix = np.nonzero(com.observed())
+    xy = com.origin + np.column_stack([ix, iy]) * com.resolution
+    truth = world.is_occupied(xy)
+    around = xy[:, None, :] + margin * np.array([[1, 0], [-1, 0], [0, 1], [0, -1]])
+    skin = truth & ~world.is_occupied(around).all(axis=1)
+    clear = ~truth & (world.clearance_at(xy) >= margin)
+    keep = skin | clear
+    return roc_auc(truth[keep], com.prob()[iy, ix][keep])
+
+
+def test_beam_samples_never_pass_the_hit_and_no_return_beams_are_free():
+    scan = LaserScan(np.array([2.0, 8.0, np.nan, -1.0, np.inf, 0.0]),
+                     np.deg2rad([0.0, 90.0, 10.0, 20.0, 180.0, 30.0]), max_range=8.0)
+    c = TrainingConfig(max_range=6.0, free_step=0.5, free_margin=0.2)
+    s = beam_samples(gtsam.Pose2(1.0, 2.0, 0.0), scan, c)
+    np.testing.assert_allclose(s.hits, [[3.0, 2.0]])
+    assert set(s.free_beam) == {0, 1, 4}                 # NaN, negative, zero give nothing
+    d = np.hypot(*(s.free - [1.0, 2.0]).T)
+    assert d[s.free_beam == 0].max() <= 1.8 + 1e-9       # stops free_margin before the hit
+    assert d[s.free_beam == 1].max() == pytest.approx(6.0)  # no return: free up to max_range
+    assert d[s.free_beam == 4].max() == pytest.approx(6.0)  # +inf is a no return too
+
+
+def test_corridor_from_ground_truth_poses_has_auc_near_one(corridor):
+    poses = [gtsam.Pose2(x, 2.0, 0.0 if i % 2 == 0 else np.pi) for i, x in enumerate(np.arange(1.5, 12.6, 0.5))]
+    com = ContinuousOccupancyMap()
+    for p, s in zip(poses, scans_at(corridor, poses)):
+        com.update(p, s)
+    assert auc_vs_truth(com, corridor) > 0.98
+    P = com.prob()
+    assert np.isfinite(P).all() and np.isfinite(com.var()).all()
+    # corridor centre is free, the walls occupied
+    xs = np.arange(2.0, 12.0, 0.5)
+    centre = com.sample(P, np.column_stack([xs, np.full_like(xs, 2.0)]))
+    wall = com.sample(com.prob_occ(), np.column_stack([xs, np.full_like(xs, 3.02)]))
+    assert centre.max() < 0.3 and wall.min() > 0.6
+
+
+def test_regeneration_removes_the_doubled_walls_of_perturbed_poses(room):
+    poses = room_tour()
+    scans = scans_at(room, poses, seed=1)
+    # the second half of the loop carries a pose error, as before a loop closure
+    error = gtsam.Pose2(0.35, -0.25, 0.06)
+    wrong = poses[:8] + [error.compose(p) for p in poses[8:]]
+
+    good = ContinuousOccupancyMap()
+    js_good = [good.update(p, s) for p, s in zip(poses, scans)]
+    bad = ContinuousOccupancyMap()
+    js_bad = [bad.update(p, s) for p, s in zip(wrong, scans)]
+
+    def doubled(com):
+        """Cells more than 0.25 m from any true wall that the map calls occupied."""
+        iy, ix = np.nonzero(com.observed())
+        xy = com.origin + np.column_stack([ix, iy]) * com.resolution
+        far = ~room.is_occupied(xy) & (room.clearance_at(xy) > 0.25)
+        return int((com.prob_occ()[iy, ix][far] > 0.8).sum() + (com.prob()[iy, ix][far] > 0.5).sum())
+
+    assert doubled(good) <= 2 and doubled(bad) > 30
+    # the first half is identical; after the pose error the local maps disagree with the map
+    assert js_bad[:8] == pytest.approx(js_good[:8])
+    assert np.mean(js_bad[8:]) > 1.4 * np.mean(js_good[8:])
+    assert bad.needs_regeneration and not good.needs_regeneration
+    bad.regenerate(zip(poses, scans))                       # corrected poses
+    assert not bad.needs_regeneration
+    assert doubled(bad) == doubled(good)
+    np.testing.assert_allclose(bad.prob(), good.prob())     # same keyframes, same map
+    assert auc_vs_truth(bad, room) > 0.97
+
+
+def test_bad_scans_never_crash_or_put_nan_in_the_map():
+    com = ContinuousOccupancyMap()
+    angles = np.deg2rad(np.arange(-90, 91, 1.0))
+    nothing = LaserScan(np.full(181, np.nan), angles, 8.0)
+    assert com.update(gtsam.Pose2(), nothing) == 0.0              # no usable beam at all
+    assert com.update(gtsam.Pose2(), LaserScan(np.zeros(0), np.zeros(0), 8.0)) == 0.0   # empty
+    open_space = LaserScan(np.full(181, np.inf), angles, 8.0)    # no hits: free points only
+    com.update(gtsam.Pose2(), open_space)
+    rng = np.random.default_rng(0)
+    r = rng.uniform(0.5, 5, 181)
+    r[rng.random(181) < 0.3] = np.nan
+    r[rng.random(181) < 0.1] = -2.0
+    r[rng.random(181) < 0.1] = np.inf
+    com.update(gtsam.Pose2(0.5, 0.2, 0.3), LaserScan(r, angles, 8.0))
+    for grid in (com.prob(), com.prob_occ(), com.prob_free(), com.var(), com.var_occ(), com.var_free()):
+        assert np.isfinite(grid).all()
+    assert ((com.prob() > 0) & (com.prob() < 1)).all()
+    assert com.prob_free()[com.observed()].mean() < 0.5           # the open space became free
+    # reading the map far outside what was mapped gives "unknown"
+    np.testing.assert_allclose(com.sample(com.prob(), np.array([[500.0, -300.0]])), 0.5)
+    with pytest.raises(ValueError, match="not finite"):
+        com.update(gtsam.Pose2(np.nan, 0.0, 0.0), open_space)
+    with pytest.raises(TypeError, match="Pose2"):
+        com.update((0.0, 0.0, 0.0), open_space)
+
+
+def test_config_rejects_non_positive_length_scales():
+    with pytest.raises(ValidationError):
+        COMConfig(obstacle={"matern_length": 0.0})
+    with pytest.raises(ValidationError):
+        COMConfig(free={"length_bounds": (0.5, 0.1)})
+    with pytest.raises(ValidationError):
+        COMConfig(query={"resolution": -0.1})
+
+
+def test_cost_per_update_does_not_depend_on_map_size(room):
+    """The local GPs see at most ``max_train`` points however many keyframes there are."""
+    com = ContinuousOccupancyMap(COMConfig(query={"history": 5}))
+    poses = room_tour()
+    for p, s in zip(poses, scans_at(room, poses)):
+        com.update(p, s)
+    assert com.keyframes == 16
+    assert com.config.query.max_train == 16
