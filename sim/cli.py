@@ -111,5 +111,44 @@ def demo(
     console.print(f"results in {out}/: metrics.json, ground_truth.tum, odometry.tum, figures/tour.png")
 
 
+@app.command("map")
+def map_(
+    log: Path = typer.Argument(..., help="CARMEN log (.clf/.log, optionally .gz)"),
+    poses: str = typer.Option("log", help="log: the log's FLASER poses; slam: the SLAM replay"),
+    out: Path = typer.Option(Path("results/map"), help="output directory"),
+    max_range: float = typer.Option(10.0, help="mapping range, m: farther hits count as no return"),
+    holdout: float = typer.Option(0.0, help="fraction of each scan's labelled points held out for the AUC"),
+    every: int = typer.Option(1, min=1, help="use every n-th scan as a keyframe"),
+):
+    """Build the continuous occupancy map of a log: com.npz, map.pgm/yaml, metrics.json, figure."""
+    from mapping.config import COMConfig, TrainingConfig
+    from mapping.export import save_com, write_ros_map
+    from mapping.figure import com_figure
+    from mapping.run import map_keyframes
+    from slam.atomic import write_json_atomic
+    from slam.carmen import CarmenLog, LogFormatError
+
+    if poses == "slam":
+        raise typer.BadParameter("--poses slam needs the SLAM replay, which has not landed yet; "
+                                 "use --poses log", param_hint="--poses")
+    if poses != "log":
+        raise typer.BadParameter(f"unknown pose source '{poses}' (have: log, slam)", param_hint="--poses")
+    try:
+        records = CarmenLog(log)
+    except (FileNotFoundError, LogFormatError) as err:
+        raise typer.BadParameter(str(err), param_hint="LOG") from None
+    config = COMConfig(training=TrainingConfig(max_range=max_range))
+    run = map_keyframes(((r.pose, r.scan) for r in records[::every]), config, holdout=holdout)
+    save_com(out / "com.npz", run.com)
+    write_ros_map(out / "map.pgm", run.com.prob(), run.com.origin, run.com.resolution)
+    write_json_atomic(out / "metrics.json", {"log": str(log), "poses": poses, **run.metrics})
+    com_figure(out / "figures" / "com.png", run.com, run.poses_xy, run.hits_xy, title=log.name)
+    m = run.metrics
+    console.print(f"{m['keyframes']} keyframes in {m['wall_time_s']:.1f} s (update median "
+                  f"{m['update_ms_median']:.1f} ms, p95 {m['update_ms_p95']:.1f} ms); AUC {m['auc']:.4f} "
+                  f"({m['holdout']['protocol']}); entropy {m['entropy_nats_0.2m']:.0f} nats")
+    console.print(f"results in {out}/: com.npz, map.pgm, map.yaml, metrics.json, figures/com.png")
+
+
 if __name__ == "__main__":
     app()

@@ -123,11 +123,22 @@ def test_config_rejects_non_positive_length_scales():
         COMConfig(query={"resolution": -0.1})
 
 
-def test_cost_per_update_does_not_depend_on_map_size(room):
-    """The local GPs see at most ``max_train`` points however many keyframes there are."""
-    com = ContinuousOccupancyMap(COMConfig(query={"history": 5}))
+def test_local_gps_see_at_most_max_train_points_however_large_the_pool(room, monkeypatch):
+    """The cost per keyframe is bounded: each block's GP gets the ``max_train`` nearest points
+    of a training pool that grows with the history of keyframes."""
+    import mapping.com as com_module
+
+    seen = []
+    real = com_module.predict_blocks
+
+    def spy(kernel, noise, pts, idx, qxy, start):
+        seen.append((len(pts), idx.shape[1], int((idx < len(pts)).sum(axis=1).max())))
+        return real(kernel, noise, pts, idx, qxy, start)
+
+    monkeypatch.setattr(com_module, "predict_blocks", spy)
+    com = ContinuousOccupancyMap(COMConfig(query={"history": 5, "max_train": 12}))
     poses = room_tour()
     for p, s in zip(poses, scans_at(room, poses)):
         com.update(p, s)
-    assert com.keyframes == 16
-    assert com.config.query.max_train == 16
+    pool, width, used = np.array(seen).T
+    assert pool.max() > 20 * 12 and width.max() == 12 and used.max() == 12

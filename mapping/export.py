@@ -1,0 +1,67 @@
+"""Map products on disk: ``com.npz`` and an occupancy grid in ROS map_server format."""
+
+from __future__ import annotations
+
+import io
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from slam.atomic import write_text_atomic
+
+#: map_server's usual thresholds on the occupancy probability.
+OCCUPIED_THRESH = 0.65
+FREE_THRESH = 0.25
+
+
+def _write_bytes_atomic(path: Path, data: bytes) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        os.unlink(tmp)
+        raise
+
+
+def save_com(path: str | Path, com) -> None:
+    """Write ``com.npz``: ``prob`` (Λ), ``prob_occ`` (Λo), ``prob_free`` (Λf), their variances
+    ``var``, ``var_occ``, ``var_free`` (all (h, w), row 0 at the bottom), ``origin`` (x, y of
+    the centre of cell (0, 0), m) and ``resolution`` (m)."""
+    buf = io.BytesIO()
+    np.savez_compressed(buf, prob=com.prob(), prob_occ=com.prob_occ(), prob_free=com.prob_free(),
+                        var=com.var(), var_occ=com.var_occ(), var_free=com.var_free(),
+                        origin=np.asarray(com.origin, float), resolution=np.float64(com.resolution))
+    _write_bytes_atomic(Path(path), buf.getvalue())
+
+
+def write_ros_map(pgm_path: str | Path, prob: np.ndarray, origin: np.ndarray, resolution: float,
+                  occupied_thresh: float = OCCUPIED_THRESH, free_thresh: float = FREE_THRESH) -> Path:
+    """Write ``prob`` (h, w, row 0 at the bottom) as a trinary ROS map: ``map.pgm`` (P5;
+    0 occupied, 254 free, 205 unknown) and ``map.yaml`` beside it. ``origin`` is the centre of
+    cell (0, 0); the YAML holds the lower-left corner, as map_server wants. Returns the YAML path."""
+    prob = np.asarray(prob, float)
+    if prob.ndim != 2 or prob.size == 0:
+        raise ValueError(f"write_ros_map: need a non-empty (h, w) map, got {prob.shape}")
+    if not 0 <= free_thresh < occupied_thresh <= 1:
+        raise ValueError(f"write_ros_map: need 0 <= free_thresh < occupied_thresh <= 1, got "
+                         f"{free_thresh}, {occupied_thresh}")
+    pgm_path = Path(pgm_path)
+    image = np.full(prob.shape, 205, np.uint8)
+    image[prob >= occupied_thresh] = 0
+    image[prob <= free_thresh] = 254
+    image = image[::-1]                                   # PGM rows run top to bottom
+    h, w = image.shape
+    _write_bytes_atomic(pgm_path, f"P5\n{w} {h}\n255\n".encode() + image.tobytes())
+    corner = np.asarray(origin, float) - 0.5 * resolution
+    meta = {"image": pgm_path.name, "mode": "trinary", "resolution": float(resolution),
+            "origin": [float(corner[0]), float(corner[1]), 0.0], "negate": 0,
+            "occupied_thresh": float(occupied_thresh), "free_thresh": float(free_thresh)}
+    yaml_path = pgm_path.with_suffix(".yaml")
+    write_text_atomic(yaml_path, yaml.safe_dump(meta, sort_keys=False))
+    return yaml_path
