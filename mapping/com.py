@@ -65,7 +65,8 @@ class ContinuousOccupancyMap:
         c = self.config
         self.obstacle_ = _GPState(_initial_kernel(c.obstacle, False), c.obstacle.noise_var, +1.0)
         self.free_ = _GPState(_initial_kernel(c.free, True), c.free.noise_var, -1.0)
-        self.drift = DriftMonitor(c.drift.threshold, c.drift.tolerance)
+        d = c.drift
+        self.drift = DriftMonitor(d.threshold, d.factor, d.window, d.floor, d.warmup)
         self._rng = np.random.default_rng(c.seed)
         self.reset()
 
@@ -75,7 +76,8 @@ class ContinuousOccupancyMap:
 
         Returns:
             this update's Jensen-Shannon divergence between the global COM and the local map,
-            averaged over the cells known in both (0 when none); also added to ``drift``.
+            averaged over the cells known in both and occupied in one (0 when none); also
+            added to ``drift``.
         """
         if not isinstance(pose, gtsam.Pose2):
             raise TypeError(f"COM.update: pose must be a gtsam.Pose2, got {type(pose).__name__}")
@@ -97,7 +99,6 @@ class ContinuousOccupancyMap:
         self._keyframe_free.append(free)
         self.keyframes += 1
         if len(hits) + len(free) == 0:
-            self.drift.add(0.0)
             return 0.0
         cells, blocks, start = self._query_set(origin, hits, free)           # line 9
         self._grow(cells)
@@ -287,10 +288,14 @@ class ContinuousOccupancyMap:
 
     def _drift(self, before: np.ndarray, local: np.ndarray) -> float:
         """Mean JS divergence (eq. 12) between the global Λ before this update and the local
-        map, over the cells known in both; cumulated in ``drift``."""
+        map, over the cells known in both and occupied in at least one (free space that
+        agrees would dilute the disagreement of shifted walls); cumulated in ``drift``."""
         known = self.config.drift.known
         both = (np.abs(before - 0.5) > known) & (np.abs(local - 0.5) > known)
-        js = float(js_divergence(np.stack([before[both], local[both]])).mean()) if both.any() else 0.0
+        both &= (before > 0.5) | (local > 0.5)
+        if not both.any():
+            return 0.0
+        js = float(js_divergence(np.stack([before[both], local[both]])).mean())
         self.drift.add(js)
         return js
 

@@ -75,13 +75,16 @@ class SquashConfig(BaseModel):
 
 
 class DriftConfig(BaseModel):
-    """Map drift check, Section VII."""
+    """Map drift check, Section VII: the local map of each keyframe against the global COM."""
 
-    threshold: float = Field(0.01, gt=0, description="cumulated Jensen-Shannon divergence (nats "
-                             "per known cell, summed over updates) that calls for regeneration")
-    tolerance: float = Field(0.008, ge=0, description="per-update divergence below this is sensor "
-                             "noise and is not cumulated (nats per cell)")
-    known: float = Field(0.1, ge=0, lt=0.5, description="a cell counts as known when |Λ-0.5| > this")
+    threshold: float = Field(0.2, gt=0, description="cumulated excess Jensen-Shannon divergence "
+                             "(nats per compared cell) that calls for regeneration")
+    factor: float = Field(5.0, ge=1, description="an update's divergence up to this many times "
+                          "the recent median is noise and is not cumulated")
+    window: int = Field(50, ge=1, description="updates in that recent median")
+    floor: float = Field(0.005, ge=0, description="smallest tolerated divergence, nats per cell")
+    known: float = Field(0.1, ge=0, lt=0.5, description="cells compared: |Λ-0.5| > this in both")
+    warmup: int = Field(10, ge=1, description="updates seen before anything is cumulated")
 
 
 class COMConfig(BaseModel):

@@ -41,27 +41,40 @@ def js_divergence(maps: np.ndarray, weights: np.ndarray | None = None) -> np.nda
 class DriftMonitor:
     """Cumulates the JS divergence over iterations (Section VII) and says when to regenerate.
 
+    Consistent scans disagree a little with the map too (sensor noise, discretisation), and
+    summing that would call for a regeneration sooner or later on any long run. So only the
+    part of each iteration's divergence above a tolerance is cumulated: ``factor`` times the
+    median of the last ``window`` divergences (at least ``floor``); nothing is cumulated until
+    ``warmup`` divergences have been seen.
+
     Args:
-        threshold: cumulated divergence (nats per compared cell, summed over iterations) past
-            which the map must be regenerated.
-        tolerance: only the part of each iteration's divergence above this is cumulated, so
-            that the small disagreement of consistent scans (sensor noise) does not add up.
+        threshold: cumulated excess divergence (nats per compared cell) past which the map
+            must be regenerated.
     """
 
-    def __init__(self, threshold: float, tolerance: float = 0.0):
+    def __init__(self, threshold: float, factor: float = 4.0, window: int = 50,
+                 floor: float = 0.0, warmup: int = 10):
         if not threshold > 0:
             raise ValueError(f"drift threshold must be positive, got {threshold}")
-        if not tolerance >= 0:
-            raise ValueError(f"drift tolerance must be non-negative, got {tolerance}")
+        if not (factor >= 1 and window >= 1 and floor >= 0 and warmup >= 1):
+            raise ValueError(f"drift monitor needs factor >= 1, window >= 1, floor >= 0, warmup >= 1; "
+                             f"got {factor}, {window}, {floor}, {warmup}")
         self.threshold = threshold
-        self.tolerance = tolerance
+        self.factor, self.window, self.floor, self.warmup = factor, window, floor, warmup
         self.cumulated = 0.0
         self.history: list[float] = []
 
+    def tolerance(self) -> float:
+        """The divergence an iteration may have without adding to the drift."""
+        recent = [v for v in self.history[-self.window:] if np.isfinite(v)]
+        if len(recent) < self.warmup:
+            return np.inf
+        return max(self.floor, self.factor * float(np.median(recent)))
+
     def add(self, divergence: float) -> bool:
-        """Add one iteration's divergence; True when the cumulated sum passes the threshold."""
+        """Add one iteration's divergence; True when the cumulated excess passes the threshold."""
         if np.isfinite(divergence):
-            self.cumulated += max(float(divergence) - self.tolerance, 0.0)
+            self.cumulated += max(float(divergence) - self.tolerance(), 0.0)
         self.history.append(float(divergence))
         return self.exceeded
 
@@ -70,4 +83,5 @@ class DriftMonitor:
         return self.cumulated > self.threshold
 
     def reset(self) -> None:
+        """Forget the cumulated drift (after a regeneration); the baseline history is kept."""
         self.cumulated = 0.0

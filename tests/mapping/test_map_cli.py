@@ -85,3 +85,23 @@ def test_intel_log_heldout_auc(shared_data):
     assert run.metrics["keyframes"] == 910
     assert run.metrics["auc"] > 0.992                    # measured 0.9944 (bilinear 0.9956)
     assert np.isfinite(run.com.prob()).all()
+
+
+@pytest.mark.slow
+def test_intel_drift_flags_a_pose_error_but_not_the_corrected_poses(shared_data):
+    """Cumulated JS drift on Intel: quiet with the log's poses; a 0.3 m / 2 degree error on the
+    second half is flagged at once (measured: on the first update after it)."""
+    from mapping.com import ContinuousOccupancyMap
+    from slam.carmen import CarmenLog
+
+    log = CarmenLog(shared_data / "logs" / "intel-corrected.log.gz")
+    error = gtsam.Pose2(0.3, -0.2, 0.035)
+    com = ContinuousOccupancyMap()
+    flagged = None
+    for i, r in enumerate(log[:600]):
+        com.update(r.pose if i < 455 else error.compose(r.pose), r.scan)
+        if i == 454:
+            assert not com.needs_regeneration
+        if flagged is None and com.needs_regeneration:
+            flagged = i
+    assert flagged is not None and flagged < 465

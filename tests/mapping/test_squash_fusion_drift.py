@@ -72,11 +72,18 @@ def test_js_of_identical_maps_is_zero_and_of_disjoint_maps_is_log2():
     np.testing.assert_allclose(js, binary_entropy((p + q) / 2) - (binary_entropy(p) + binary_entropy(q)) / 2, atol=1e-12)
 
 
-def test_drift_monitor_cumulates_above_tolerance_and_resets():
-    d = DriftMonitor(threshold=0.1, tolerance=0.01)
-    assert not d.add(0.005)                     # noise: not cumulated
-    assert not d.add(0.06)
-    assert d.add(0.07)                          # 0.05 + 0.06 > 0.1
+def test_drift_monitor_cumulates_only_the_excess_over_the_recent_median():
+    d = DriftMonitor(threshold=0.1, factor=4.0, window=20, floor=0.0, warmup=10)
+    for v in [0.005] * 9:
+        assert not d.add(v)
+    assert d.tolerance() == np.inf                 # still warming up
+    d.add(0.005)
+    assert d.tolerance() == pytest.approx(0.02)
+    assert not d.add(0.019)                         # below 4 x median: noise
+    assert d.cumulated == 0
+    assert not d.add(0.07)                          # 0.05 above the tolerance
+    assert d.cumulated == pytest.approx(0.05)
+    assert d.add(0.08)                              # 0.05 + 0.06 > 0.1
     d.reset()
     assert d.cumulated == 0 and not d.exceeded
     with pytest.raises(ValueError):
