@@ -182,6 +182,14 @@ class ContinuousOccupancyMap:
                         self._free.precision, self._free.weighted)[1]
         return np.where(np.isfinite(v), v, prior)
 
+    def observed_bounds(self) -> tuple[slice, slice]:
+        """(rows, cols) slices of the smallest box holding every observed cell."""
+        obs = self.observed()
+        if not obs.any():
+            return slice(0, 0), slice(0, 0)
+        rows, cols = np.flatnonzero(obs.any(1)), np.flatnonzero(obs.any(0))
+        return slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1)
+
     def observed(self) -> np.ndarray:
         """(h, w) bool: cells some local map has been fused into."""
         return (self._occ.precision > 0) | (self._free.precision > 0)
@@ -281,6 +289,17 @@ class ContinuousOccupancyMap:
         return predict_blocks(gp.kernel, gp.noise_var, pts, idx, self.frame.centres(cells), start)
 
     def _grow(self, cells: np.ndarray) -> None:
+        lo, hi = cells.min(0), cells.max(0)
+        if not self.frame.empty:
+            lo = np.minimum(lo, [self.frame.ix0, self.frame.iy0])
+            hi = np.maximum(hi, [self.frame.ix0 + self.frame.shape[1] - 1,
+                                 self.frame.iy0 + self.frame.shape[0] - 1])
+        span = (hi - lo + 1).astype(float)
+        if span[0] * span[1] > self.config.query.max_cells:
+            r = self.resolution
+            raise ValueError(f"COM: the map would grow to {span[0] * r:.0f} m x {span[1] * r:.0f} m "
+                             f"({span[0] * span[1]:.3g} cells > max_cells "
+                             f"{self.config.query.max_cells}); is the pose right?")
         pad = self.frame.ensure(cells.min(0), cells.max(0))
         if pad is not None:
             self._occ.pad(*pad)

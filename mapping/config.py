@@ -64,6 +64,8 @@ class QueryConfig(BaseModel):
                           "(m) outside the block")
     max_train: int = Field(16, ge=4, description="cap on training points per block and GP (the "
                            "nearest ones to the block centre)")
+    max_cells: int = Field(9_000_000, ge=1, description="largest map (cells) the COM may grow "
+                           "to; a pose far off (a bad pose) is rejected instead of exhausting memory")
     history: int = Field(2, ge=0, description="previous keyframes, nearest to the sensor, whose "
                          "points join the training set")
 

@@ -66,7 +66,8 @@ def map_keyframes(keyframes: Iterable[tuple[gtsam.Pose2, LaserScan]], config: CO
                     "points": int(len(occ))},
         "auc": roc_auc(occ, com.sample(prob, xy)),
         "auc_bilinear": roc_auc(occ, com.frame.sample(prob, xy, bilinear=True)),
-        "entropy_nats_0.2m": map_entropy(prob, com.resolution, 0.2),
+        # over the bounding box of the observed cells (the arrays carry growth padding)
+        "entropy_nats_0.2m": map_entropy(prob[com.observed_bounds()], com.resolution, 0.2),
         "map_cells": list(prob.shape),
         "resolution_m": com.resolution,
         "origin_m": [float(v) for v in com.origin],

@@ -7,7 +7,7 @@ from pydantic import ValidationError
 
 from mapping.com import ContinuousOccupancyMap
 from mapping.config import COMConfig, TrainingConfig
-from mapping.metrics import roc_auc
+from mapping.metrics import coverage, roc_auc
 from mapping.training import beam_samples
 from slam.scan import LaserScan
 
@@ -55,6 +55,11 @@ def test_corridor_from_ground_truth_poses_has_auc_near_one(corridor):
     centre = com.sample(P, np.column_stack([xs, np.full_like(xs, 2.0)]))
     wall = com.sample(com.prob_occ(), np.column_stack([xs, np.full_like(xs, 3.02)]))
     assert centre.max() < 0.3 and wall.min() > 0.6
+    # coverage of the reachable free space farther than a robot radius from the walls
+    reach = corridor.reachable((2.0, 2.0), 0.25)
+    iy, ix = np.nonzero(reach)
+    xy = corridor.center_of(np.column_stack([ix, iy]))
+    assert coverage(com.sample(P, xy), np.ones(len(xy), bool), 0.2) > 0.95
 
 
 def test_regeneration_removes_the_doubled_walls_of_perturbed_poses(room):
@@ -114,6 +119,9 @@ def test_bad_scans_never_crash_or_put_nan_in_the_map():
         com.update(gtsam.Pose2(np.nan, 0.0, 0.0), open_space)
     with pytest.raises(TypeError, match="Pose2"):
         com.update((0.0, 0.0, 0.0), open_space)
+    with pytest.raises(ValueError, match="max_cells"):             # a wild pose
+        com.update(gtsam.Pose2(1e6, -1e6, 0.0), open_space)
+    assert np.isfinite(com.prob()).all()
 
 
 def test_config_rejects_non_positive_length_scales():
