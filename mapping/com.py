@@ -94,14 +94,15 @@ class ContinuousOccupancyMap:
         if not self.obstacle_.fitted and min(len(hits), len(free)) >= MIN_FIT_POINTS:
             self._fit(hits, free)                                             # line 5
         pool_hits, pool_free = self._training_pool(origin, hits, free)       # line 10
+        if len(hits) + len(free) > 0:
+            cells, blocks, start = self._query_set(origin, hits, free)       # line 9
+            self._grow(cells)               # may reject a wild pose: nothing is stored then
         self._keyframe_origins.append(origin)
         self._keyframe_hits.append(hits)
         self._keyframe_free.append(free)
         self.keyframes += 1
         if len(hits) + len(free) == 0:
             return 0.0
-        cells, blocks, start = self._query_set(origin, hits, free)           # line 9
-        self._grow(cells)
         flat = self.frame.flat(cells)
         before = self.prob_at(flat)
         local = []
