@@ -150,5 +150,88 @@ def map_(
     console.print(f"results in {out}/: com.npz, map.pgm, map.yaml, metrics.json, figures/com.png")
 
 
+@app.command()
+def replay(
+    log: Path = typer.Argument(..., help="CARMEN log (.clf/.log, optionally .gz)"),
+    relations: Optional[Path] = typer.Option(None, help="Kümmerle .relations file to score against"),
+    out: Path = typer.Option(Path("results/replay"), help="output directory"),
+    config: Optional[Path] = typer.Option(None, help="SLAM configuration (YAML)"),
+    max_range: float = typer.Option(80.0, help="readings at or beyond this (m) are no return"),
+    skip_malformed: bool = typer.Option(False, help="skip malformed lines (counted) instead of failing"),
+):
+    """Run Pose SLAM over a CARMEN log; write trajectory.tum, graph.g2o, corrected.clf, metrics.json."""
+    from slam.carmen import CarmenLog, LogFormatError
+    from slam.evaluation import RelationsError
+    from slam.replay import replay as run_replay
+    from slam.replay import write_replay
+
+    cfg = _slam_config(config)
+    try:
+        carmen = CarmenLog(log, max_range=max_range, skip_malformed=skip_malformed)
+    except (LogFormatError, FileNotFoundError) as err:
+        console.print(f"[red]error:[/red] {err}")
+        raise typer.Exit(2) from None
+    if carmen.skipped:
+        console.print(f"skipped {len(carmen.skipped)} malformed lines (first: line {carmen.skipped[0][0]}: "
+                      f"{carmen.skipped[0][1]})")
+    result = run_replay(carmen, cfg, progress=True)
+    try:
+        metrics = write_replay(out, carmen, result, relations)
+    except (RelationsError, FileNotFoundError) as err:
+        console.print(f"[red]error:[/red] {err}")
+        raise typer.Exit(2) from None
+    console.print(f"{metrics['scans']} scans, {metrics['keyframes']} keyframes, {metrics['loop_closures']} "
+                  f"loop closures in {metrics['wall_time_s']:.1f} s ({metrics['real_time_factor']:.1f}x real time)")
+    if "relation_error" in metrics:
+        for name, e in metrics["relation_error"].items():
+            if isinstance(e, dict) and e["n"]:
+                console.print(f"relation error {name} (n={e['n']}): {e['trans_mean_m']:.4f} ± {e['trans_std_m']:.4f} m, "
+                              f"{e['rot_mean_deg']:.3f} ± {e['rot_std_deg']:.3f} deg")
+    console.print(f"results in {out}/: trajectory.tum, graph.g2o, corrected.clf, metrics.json, trajectory.png")
+
+
+def _slam_config(path: Optional[Path]):
+    import yaml
+    from pydantic import ValidationError
+
+    from slam.config import SlamConfig
+
+    if path is None:
+        return SlamConfig()
+    try:
+        return SlamConfig.model_validate(yaml.safe_load(path.read_text()) or {})
+    except (OSError, yaml.YAMLError, ValidationError) as err:
+        raise typer.BadParameter(f"{path}: {err}", param_hint="--config") from None
+
+
+@app.command()
+def posegraph(
+    graph: Path = typer.Argument(..., help="2-D g2o pose graph (VERTEX_SE2 / EDGE_SE2)"),
+    out: Optional[Path] = typer.Option(None, help="write the optimised graph here (g2o)"),
+    max_iterations: int = typer.Option(3000, help="Levenberg–Marquardt iteration limit"),
+):
+    """Optimise a 2-D g2o pose graph with Levenberg–Marquardt and print χ² before and after."""
+    from slam.g2o import G2oFormatError, chi2, optimize, read_g2o, write_g2o
+
+    try:
+        g = read_g2o(graph)
+    except (G2oFormatError, OSError) as err:
+        console.print(f"[red]error:[/red] {err}")
+        raise typer.Exit(2) from None
+    factors = g.factor_graph()
+    before, before_gtsam = chi2(g, g.poses), 2 * factors.error(g.values())
+    tic = time.perf_counter()
+    values, iterations = optimize(g, max_iterations=max_iterations)
+    wall = time.perf_counter() - tic
+    after_gtsam = 2 * factors.error(values)
+    console.print(f"{graph.name}: {len(g.poses)} poses, {len(g.edges)} edges")
+    console.print(f"chi2 (2 x GTSAM error): {before_gtsam:.6g} -> {after_gtsam:.9g}")
+    console.print(f"chi2 (g2o EdgeSE2):     {before:.6g} -> {chi2(g, values):.9g}")
+    console.print(f"{iterations} iterations, {wall:.2f} s")
+    if out:
+        write_g2o(out, {k: values.atPose2(k) for k in g.poses}, g.edges)
+        console.print(f"optimised graph: {out}")
+
+
 if __name__ == "__main__":
     app()

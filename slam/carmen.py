@@ -5,12 +5,16 @@ Field of view conventions (FLASER carries none): the scan spans 180 degrees star
 180/(n-1) degrees; an even count (180, 360) has a step of 180/n degrees. ROBOTLASER1 carries its
 own start angle and angular resolution.
 
-"Corrected" logs written by SLAM (e.g. GMapping's) hold SLAM poses in FLASER and the raw odometry
-in ODOM lines; raw logs hold odometry in FLASER and no ODOM lines. ``LaserRecord.odometry`` is the
-raw odometry in both cases: the most recent ODOM pose before the scan in file order when the log
-has ODOM lines, the FLASER odometry slot otherwise. GMapping also writes, right after each scan,
-an ODOM line with timestamp 0 that repeats the corrected pose: such lines are not odometry and
-are ignored.
+Raw logs hold odometry in FLASER and usually no ODOM lines; then ``LaserRecord.odometry`` is the
+FLASER odometry slot. With ODOM lines it is built from them, the most recent one before the scan.
+
+"Corrected" logs written by GMapping (``*.gfs.log``) hold SLAM poses in FLASER, and their ODOM lines
+are *not* a raw odometry trajectory: right after each scan GMapping writes an ODOM line with
+timestamp 0 that repeats the corrected pose, and the following ODOM lines continue from that
+corrected pose (the wheel increments since the scan applied to it). The reader detects this
+re-basing and chains the increments into a proper odometry trajectory:
+``odometry[k+1] = odometry[k] ∘ pose[k]⁻¹ ∘ ODOM_last_before(k+1)``, so the relative motion between
+consecutive records' ``odometry`` is the wheel odometry's, as a SLAM front end needs.
 """
 
 from __future__ import annotations
@@ -94,6 +98,8 @@ class CarmenLog:
         opener = gzip.open if self.path.suffix == ".gz" else open
         last_odom: gtsam.Pose2 | None = None
         after_laser = False
+        rebase: gtsam.Pose2 | None = None  # the corrected pose the ODOM lines continue from
+        self.rebased_odometry = False
         try:
             with opener(self.path, "rt", errors="replace") as f:
                 for number, text in enumerate(f, start=1):
@@ -104,7 +110,12 @@ class CarmenLog:
                         kind = fields[0]
                         if kind == "ODOM":
                             odom, stamp = _parse_odom(fields)
-                            if not (stamp == 0.0 and after_laser):
+                            if stamp == 0.0 and after_laser and self.records:
+                                if _same(odom, self.records[-1].pose):
+                                    rebase = odom
+                                    self.rebased_odometry = True
+                                    last_odom = odom
+                            else:
                                 last_odom = odom
                                 self.has_odom_lines = True
                         after_laser = kind in ("FLASER", "ROBOTLASER1")
@@ -112,6 +123,8 @@ class CarmenLog:
                             parse = _parse_flaser if kind == "FLASER" else _parse_robotlaser
                             scan, pose, odom = parse(fields, self.max_range)
                             odometry = last_odom if self.has_odom_lines else odom
+                            if rebase is not None and self.records:
+                                odometry = self.records[-1].odometry.compose(rebase.between(last_odom))
                             self.records.append(LaserRecord(number, scan, pose, odometry))
                         elif kind == "PARAM" and len(fields) >= 3:
                             self.params[fields[1]] = fields[2]
@@ -122,6 +135,10 @@ class CarmenLog:
                         self.skipped.append((number, str(err)))
         except (OSError, EOFError, gzip.BadGzipFile) as err:
             raise LogFormatError(f"{self.path}: cannot read log: {err}") from None
+
+
+def _same(a: gtsam.Pose2, b: gtsam.Pose2, tol: float = 1e-4) -> bool:
+    return abs(a.x() - b.x()) < tol and abs(a.y() - b.y()) < tol and abs(a.theta() - b.theta()) < tol
 
 
 def _floats(fields: list[str], what: str) -> np.ndarray:
@@ -179,3 +196,34 @@ def _parse_robotlaser(fields: list[str], max_range: float):
     effective_max = min(max_range, sensor_max) if sensor_max > 0 else max_range
     scan = LaserScan(ranges, angles, effective_max, timestamp=timestamp)
     return scan, _pose(tail[0:3]), _pose(tail[3:6])
+
+
+def write_corrected_log(path: str | Path, log: CarmenLog, poses: list[gtsam.Pose2]) -> None:
+    """Write ``log``'s laser lines with both pose triples replaced by ``poses`` (one per record),
+    atomically: the "corrected log" the Freiburg metricEvaluator reads (it takes the second
+    triple of FLASER and the robot pose of ROBOTLASER1). ROBOTLASER1's laser pose is set to the
+    same pose (the laser offset is not modelled). Ranges and timestamps are copied verbatim."""
+    from slam.atomic import write_text_atomic
+
+    if len(poses) != len(log):
+        raise ValueError(f"{path}: {len(poses)} poses for {len(log)} laser records of {log.path}")
+    by_line = {r.line: p for r, p in zip(log.records, poses)}
+    opener = gzip.open if log.path.suffix == ".gz" else open
+    rows = [f"# {log.path.name} with poses from gpexplore Pose SLAM"]
+    with opener(log.path, "rt", errors="replace") as f:
+        for number, text in enumerate(f, start=1):
+            pose = by_line.get(number)
+            if pose is None:
+                continue
+            fields = text.split()
+            triple = [f"{pose.x():.6f}", f"{pose.y():.6f}", f"{pose.theta():.6f}"]
+            if fields[0] == "FLASER":
+                n = int(fields[1])
+                fields[2 + n:2 + n + 6] = triple + triple
+            else:
+                n = int(fields[8])
+                m = int(fields[9 + n])
+                start = 10 + n + m
+                fields[start:start + 6] = triple + triple
+            rows.append(" ".join(fields))
+    write_text_atomic(path, "".join(r + "\n" for r in rows))

@@ -1,0 +1,105 @@
+"""Typed configuration of Pose SLAM, grouped the way the code is grouped; defaults work on
+the MIT CSAIL log and on the simulator's 8 m / 180° Stage-like laser."""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict, Field
+
+
+class _Config(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class RegistrationConfig(_Config):
+    """Scan matching: KISS-ICP coarse-to-fine, then point-to-line refinement."""
+
+    voxel_sizes: list[float] = Field([1.0, 0.5, 0.2, 0.1], min_length=1,
+                                     description="KISS-ICP voxel sizes (m), coarse to fine")
+    max_points_per_voxel: int = Field(20, ge=1)
+    refine_iterations: int = Field(6, ge=0, description="point-to-line Gauss-Newton iterations")
+    convergence: float = Field(1e-4, gt=0, description="stop when a step is below this (m, rad)")
+    max_correspondence: float = Field(0.3, gt=0, description="point-to-line gate (m)")
+    inlier_distance: float = Field(0.1, gt=0, description="a point within this of the map is an inlier (m)")
+    normal_max_gap: float = Field(0.3, gt=0, description="neighbouring beams farther apart give no normal (m)")
+    min_sigma: float = Field(0.01, gt=0, description="floor of the residual standard deviation (m)")
+    degenerate_eigenvalue: float = Field(0.03, ge=0, le=0.5,
+                                         description="translation directions whose normalised point-to-line "
+                                                     "information is below this are degenerate")
+    min_points: int = Field(20, ge=3, description="fewer hit points: no scan matching")
+
+
+class OdometryModel(_Config):
+    """How much the wheel odometry's prediction is trusted (its σ grows with the motion)."""
+
+    translation_fraction: float = Field(0.02, gt=0, description="σ_xy per metre moved")
+    translation_floor: float = Field(0.002, gt=0, description="m")
+    rotation_fraction: float = Field(0.1, gt=0, description="σ_θ per radian turned")
+    rotation_per_meter: float = Field(0.05, ge=0, description="σ_θ per metre moved (rad/m)")
+    rotation_floor: float = Field(0.005, gt=0, description="rad")
+
+
+class FrontEndConfig(_Config):
+    """Scan-to-submap odometry."""
+
+    registration: RegistrationConfig = RegistrationConfig()
+    start_level: int = Field(2, ge=0, description="first KISS-ICP voxel level when tracking; past the last "
+                                                   "level, only the point-to-line refinement runs (the "
+                                                   "prediction is good; the full schedule runs on a poor fit)")
+    retry_inlier_fraction: float = Field(0.7, ge=0, le=1,
+                                         description="below this, track again from the coarsest level")
+    submap_keyframes: int = Field(10, ge=1, description="recent keyframes in the local submap")
+    odometry: OdometryModel = OdometryModel()
+
+
+class KeyframeConfig(_Config):
+    """Information-based keyframes: a pose enters the graph only when it adds information."""
+
+    min_translation: float = Field(0.3, gt=0, description="m")
+    min_rotation_deg: float = Field(10.0, gt=0, description="deg")
+    min_novelty: float = Field(0.3, gt=0, le=1,
+                               description="share of scan points the submap does not explain (new information)")
+    between_sigma_floor: list[float] = Field([0.01, 0.01, 0.003], min_length=3, max_length=3,
+                                             description="floor of keyframe-link σ (m, m, rad)")
+
+
+class LoopClosureConfig(_Config):
+    """Candidate search, Pose SLAM gates, and verification of loop closures."""
+
+    enabled: bool = True
+    search_radius: float = Field(8.0, gt=0, description="Euclidean pre-gate (m)")
+    min_keyframe_gap: int = Field(30, ge=1, description="skip the most recent keyframes")
+    match_radius: float = Field(3.0, gt=0, description="scans match if poses closer than this (m)")
+    max_yaw_difference_deg: float = Field(180.0, gt=0, le=180,
+                                          description="predicted heading difference for scans to overlap")
+    min_probability: float = Field(0.05, ge=0, le=1, description="P(|Δx|,|Δy| < match_radius)")
+    min_information_gain: float = Field(1.0, ge=0, description="nats, against the nominal loop σ")
+    nominal_sigma: list[float] = Field([0.05, 0.05, 0.02], min_length=3, max_length=3,
+                                       description="σ of a loop measurement for the gain test (m, m, rad)")
+    max_candidates: int = Field(2, ge=1, description="verified per keyframe, most probable first")
+    neighbour_keyframes: int = Field(5, ge=0, description="± keyframes around a candidate in its submap")
+    yaw_offsets_deg: list[float] = Field([0.0, 7.5, -7.5, 15.0, -15.0], min_length=1)
+    min_inlier_fraction: float = Field(0.6, gt=0, le=1)
+    mahalanobis_gate: float = Field(16.27, gt=0, description="χ²(3) gate (0.999) against the graph's prediction:"
+                                                              " a loop beyond it needs a consistent partner")
+    mahalanobis_reject: float = Field(200.0, gt=0, description="beyond this a verified loop is rejected outright")
+    pair_window: int = Field(15, ge=1, description="keyframes a loop waits for a consistent partner")
+    pair_translation: float = Field(0.1, gt=0, description="m: pairwise consistency tolerance")
+    pair_rotation_deg: float = Field(2.0, gt=0, description="deg: pairwise consistency tolerance")
+    sigma_floor: list[float] = Field([0.02, 0.02, 0.005], min_length=3, max_length=3,
+                                     description="floor of a loop factor's σ (m, m, rad)")
+    cauchy_k: float = Field(3.0, gt=0, description="Cauchy kernel width on whitened loop residuals")
+    extra_updates: int = Field(4, ge=0, description="iSAM2 iterations after a loop closure")
+    moved_threshold: float = Field(0.05, ge=0, description="m: a loop moving a keyframe more fires the event")
+
+
+class BackEndConfig(_Config):
+    relinearize_threshold: float = Field(0.01, gt=0)
+    relinearize_skip: int = Field(1, ge=1)
+    qr: bool = Field(False, description="QR instead of Cholesky (ill-conditioned graphs)")
+
+
+class SlamConfig(_Config):
+    front_end: FrontEndConfig = FrontEndConfig()
+    keyframes: KeyframeConfig = KeyframeConfig()
+    loop_closure: LoopClosureConfig = LoopClosureConfig()
+    back_end: BackEndConfig = BackEndConfig()

@@ -1,0 +1,109 @@
+"""Scan-matching odometry: each scan is registered to a submap of the recent keyframes, starting
+from the wheel odometry's prediction (or a constant-velocity one when there is no odometry)."""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+import gtsam
+import numpy as np
+
+from slam.config import FrontEndConfig
+from slam.registration import Match, Registration, Submap
+
+
+@dataclass
+class Tracked:
+    """The front end's belief after one scan.
+
+    Attributes:
+        pose: the scan's pose in the front end's (locally consistent) odometry frame.
+        covariance: (3, 3) of that pose relative to the submap.
+        match: the registration, None when the scan could not be matched.
+        novelty: share of the scan's points the submap does not explain (1 with no match).
+    """
+
+    pose: gtsam.Pose2
+    covariance: np.ndarray
+    match: Match | None
+    novelty: float
+
+
+class ScanOdometry:
+    """KISS-ICP scan-to-submap odometry with wheel odometry as the initial guess.
+
+    Where the scene leaves a direction unobservable (a featureless corridor: point-to-point ICP
+    would report no motion) the wheel odometry's value is kept in that direction and its
+    variance is the odometry's.
+    """
+
+    def __init__(self, config: FrontEndConfig | None = None):
+        self.config = config or FrontEndConfig()
+        self.registration = Registration(self.config.registration)
+        self.pose: gtsam.Pose2 | None = None
+        self._last_wheel: gtsam.Pose2 | None = None
+        self._last_delta = gtsam.Pose2()
+        self._keyframes: deque = deque(maxlen=self.config.submap_keyframes)
+        self._submap: Submap | None = None
+
+    def odometry_covariance(self, delta: gtsam.Pose2) -> np.ndarray:
+        """(3, 3) covariance of a wheel-odometry motion ``delta``: σ grows with the motion.
+
+        σ_x = σ_y = a·|t| + b (m),  σ_θ = c·|θ| + d·|t| + e (rad).
+        """
+        o = self.config.odometry
+        t = np.hypot(delta.x(), delta.y())
+        sigma_t = o.translation_fraction * t + o.translation_floor
+        sigma_r = o.rotation_fraction * abs(delta.theta()) + o.rotation_per_meter * t + o.rotation_floor
+        return np.diag([sigma_t**2, sigma_t**2, sigma_r**2])
+
+    def track(self, points: np.ndarray, wheel: gtsam.Pose2 | None) -> Tracked:
+        """Register one scan's (m, 2) sensor-frame hit points; ``wheel`` is the raw odometry pose."""
+        if wheel is not None and self._last_wheel is not None:
+            delta = self._last_wheel.between(wheel)
+        else:
+            delta = self._last_delta
+        if self.pose is None:
+            self.pose = wheel if wheel is not None else gtsam.Pose2()
+            self._last_wheel = wheel
+            return Tracked(self.pose, np.zeros((3, 3)), None, 1.0)
+        guess = self.pose.compose(delta)
+        match = None
+        if self._submap is not None and len(points) >= self.config.registration.min_points:
+            prior = (guess, np.linalg.inv(self.odometry_covariance(delta))) if wheel is not None else None
+            match = self._register(points, guess, prior)
+        if match is None:
+            pose, covariance, novelty = guess, self.odometry_covariance(delta), 1.0
+        else:
+            pose, novelty, covariance = match.pose, 1.0 - match.inlier_fraction, match.covariance
+            if wheel is None:
+                for u in match.degenerate:
+                    covariance = covariance + np.outer(u, u) * (u @ self.odometry_covariance(delta) @ u)
+        self._last_delta = self.pose.between(pose)
+        self.pose = pose
+        self._last_wheel = wheel
+        return Tracked(pose, covariance, match, novelty)
+
+    def _register(self, points: np.ndarray, guess: gtsam.Pose2, prior) -> Match:
+        """Fine levels first (the prediction is usually good). On a poor fit, the full
+        coarse-to-fine schedule, with and without the odometry prior and from the constant-velocity
+        prediction too (wheel odometry can stall or jump), keeping whichever explains most points."""
+        c = self.config
+        match = self.registration.register(points, self._submap, guess, prior, start_level=c.start_level)
+        if match.inlier_fraction >= c.retry_inlier_fraction:
+            return match
+        velocity = self.pose.compose(self._last_delta)
+        for start, with_prior in ((guess, True), (guess, False), (velocity, False)):
+            if with_prior and prior is None:
+                continue
+            other = self.registration.register(points, self._submap, start, prior if with_prior else None)
+            if other.inlier_fraction > match.inlier_fraction + 0.02:
+                match = other
+        return match
+
+    def add_keyframe(self, pose: gtsam.Pose2, points: np.ndarray, normals: np.ndarray) -> None:
+        """Put a keyframe's scan into the submap (which keeps the most recent ones)."""
+        self._keyframes.append((pose, points, normals))
+        poses, pts, nrm = zip(*self._keyframes)
+        self._submap = Submap.from_scans(list(poses), list(pts), list(nrm), self.config.registration)

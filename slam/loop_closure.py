@@ -1,0 +1,140 @@
+"""Loop closures: candidate search with the Pose SLAM gates, then verification by coarse-to-fine
+registration, an inlier-fraction check and a Mahalanobis gate against the graph's prediction."""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import dataclass
+
+import gtsam
+import numpy as np
+
+from slam.back_end import PoseGraph
+from slam.config import LoopClosureConfig, RegistrationConfig
+from slam.registration import Match, Registration, Submap
+
+
+@dataclass
+class Candidate:
+    """An earlier keyframe ``j`` that may overlap the new keyframe ``k``.
+
+    Attributes:
+        probability: P(|Δx| < r, |Δy| < r) for the relative pose under the joint marginal
+            (Ila et al. 2010, the probability that the two poses are close enough to match).
+        gain: mutual information of a nominal loop link, ½ ln det(Σ_rel + Σ_z)/det(Σ_z) (nats).
+    """
+
+    j: int
+    k: int
+    predicted: gtsam.Pose2
+    covariance: np.ndarray
+    probability: float
+    gain: float
+
+
+@dataclass
+class LoopClosure:
+    """A verified loop: ``match.pose`` is keyframe k in the frame of keyframe j."""
+
+    candidate: Candidate
+    match: Match
+    mahalanobis: float
+
+
+def closeness_probability(predicted: gtsam.Pose2, covariance: np.ndarray, radius: float) -> float:
+    """P(|Δx| < radius and |Δy| < radius) with Δ ~ N(predicted, covariance), axes independent."""
+    p = 1.0
+    for mean, var in ((predicted.x(), covariance[0, 0]), (predicted.y(), covariance[1, 1])):
+        sd = math.sqrt(max(var, 1e-12)) * math.sqrt(2.0)
+        p *= 0.5 * (math.erf((radius - mean) / sd) - math.erf((-radius - mean) / sd))
+    return p
+
+
+def information_gain(covariance: np.ndarray, measurement_covariance: np.ndarray) -> float:
+    """½ ln det(Σ_rel + Σ_z) / det(Σ_z): what a link would teach the graph (nats)."""
+    _, a = np.linalg.slogdet(covariance + measurement_covariance)
+    _, b = np.linalg.slogdet(measurement_covariance)
+    return 0.5 * (a - b)
+
+
+class LoopClosureDetector:
+    """Finds and verifies loop closures for a new keyframe against earlier ones."""
+
+    def __init__(self, config: LoopClosureConfig | None = None,
+                 registration: RegistrationConfig | None = None):
+        self.config = config or LoopClosureConfig()
+        self.registration = Registration(registration or RegistrationConfig())
+        self.tried = 0
+        #: why verifications failed: {"inliers": n, "degenerate": n, "mahalanobis": n}
+        self.rejected: Counter = Counter()
+
+    def candidates(self, graph: PoseGraph, k: int) -> list[Candidate]:
+        """Earlier keyframes passing the Euclidean pre-gate, the closeness probability and the
+        information gain, most probable first (at most ``max_candidates``)."""
+        c = self.config
+        last = k - c.min_keyframe_gap
+        if last < 0:
+            return []
+        positions = graph.positions()
+        distance = np.linalg.norm(positions[:last + 1] - positions[k], axis=1)
+        near = np.flatnonzero(distance < c.search_radius)
+        nominal = np.diag(np.square(c.nominal_sigma))
+        found = []
+        for j in near[np.argsort(distance[near])][:2 * c.max_candidates]:
+            predicted, covariance = graph.relative(int(j), k)
+            if abs(predicted.theta()) > np.radians(c.max_yaw_difference_deg):
+                continue
+            probability = closeness_probability(predicted, covariance, c.match_radius)
+            gain = information_gain(covariance, nominal)
+            if probability >= c.min_probability and gain >= c.min_information_gain:
+                found.append(Candidate(int(j), k, predicted, covariance, probability, gain))
+        found.sort(key=lambda cand: -cand.probability)
+        return found[:c.max_candidates]
+
+    def verify(self, candidate: Candidate, graph: PoseGraph, scans: list[tuple[np.ndarray, np.ndarray]]
+               ) -> LoopClosure | None:
+        """Register keyframe k's scan to the submap of keyframe j and its neighbours (in j's frame),
+        trying yaw offsets around the prediction; ``scans[i]`` is keyframe i's (points, normals)."""
+        c = self.config
+        self.tried += 1
+        j, k = candidate.j, candidate.k
+        lo = max(0, j - c.neighbour_keyframes)
+        hi = min(k - c.min_keyframe_gap, j + c.neighbour_keyframes)
+        xj = graph.pose(j)
+        members = range(lo, hi + 1)
+        submap = Submap.from_scans([xj.between(graph.pose(i)) for i in members],
+                                   [scans[i][0] for i in members], [scans[i][1] for i in members],
+                                   self.registration.config)
+        points = scans[k][0]
+        best: Match | None = None
+        for offset in np.radians(c.yaw_offsets_deg):
+            guess = candidate.predicted.compose(gtsam.Pose2(0.0, 0.0, float(offset)))
+            match = self.registration.register(points, submap, guess)
+            if best is None or match.inlier_fraction > best.inlier_fraction:
+                best = match
+            if best.inlier_fraction >= c.min_inlier_fraction:
+                break
+        if best is None or best.inlier_fraction < c.min_inlier_fraction:
+            self.rejected["inliers"] += 1
+            return None
+        if len(best.degenerate):
+            self.rejected["degenerate"] += 1
+            return None
+        error = candidate.predicted.localCoordinates(best.pose)
+        d2 = float(error @ np.linalg.solve(candidate.covariance + best.covariance, error))
+        return LoopClosure(candidate, best, d2)
+
+    def consistent(self, a: LoopClosure, b: LoopClosure, graph: PoseGraph) -> bool:
+        """Pairwise consistency of two loops from different keyframes: b's measurement predicted
+        from a's through the graph's local relative poses on both sides,
+        ẑ_b = (x_ja⁻¹ x_jb)⁻¹ · z_a · (x_ka⁻¹ x_kb), must agree with z_b."""
+        c = self.config
+        ja, ka, jb, kb = a.candidate.j, a.candidate.k, b.candidate.j, b.candidate.k
+        if ka == kb:
+            return False
+        predicted = graph.pose(ja).between(graph.pose(jb)).inverse().compose(a.match.pose).compose(
+            graph.pose(ka).between(graph.pose(kb)))
+        error = predicted.localCoordinates(b.match.pose)
+        return bool(np.hypot(error[0], error[1]) < c.pair_translation
+                    and abs(error[2]) < np.radians(c.pair_rotation_deg))

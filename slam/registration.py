@@ -1,0 +1,202 @@
+"""Scan-to-submap registration: KISS-ICP coarse to fine, then point-to-line refinement that also
+yields the covariance, the inlier fraction, and the degenerate (unobservable) directions."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import gtsam
+import numpy as np
+from kiss_icp.pybind import kiss_icp_pybind
+from scipy.spatial import cKDTree
+
+from slam.config import RegistrationConfig
+
+
+def scan_normals(points: np.ndarray, max_gap: float) -> np.ndarray:
+    """(m, 2) unit normals of beam-ordered points from their ±2 neighbours; NaN where the
+    neighbours are missing or farther than ``max_gap`` (a jump edge)."""
+    m = len(points)
+    normals = np.full((m, 2), np.nan)
+    if m < 5:
+        return normals
+    gaps = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    ok = np.zeros(m, bool)
+    ok[2:-2] = (gaps[:-3] < max_gap) & (gaps[1:-2] < max_gap) & (gaps[2:-1] < max_gap) & (gaps[3:] < max_gap)
+    tangent = points[4:] - points[:-4]
+    length = np.linalg.norm(tangent, axis=1)
+    ok[2:-2] &= length > 1e-6
+    t = tangent / np.maximum(length, 1e-12)[:, None]
+    normals[2:-2] = np.column_stack([-t[:, 1], t[:, 0]])
+    normals[~ok] = np.nan
+    return normals
+
+
+def pose_matrix(pose: gtsam.Pose2) -> np.ndarray:
+    """The 4×4 homogeneous matrix of a planar pose (KISS-ICP's pose type)."""
+    c, s = np.cos(pose.theta()), np.sin(pose.theta())
+    m = np.eye(4)
+    m[:2, :2] = [[c, -s], [s, c]]
+    m[:2, 3] = pose.x(), pose.y()
+    return m
+
+
+def matrix_pose(m: np.ndarray) -> gtsam.Pose2:
+    return gtsam.Pose2(m[0, 3], m[1, 3], np.arctan2(m[1, 0], m[0, 0]))
+
+
+def transform(pose: gtsam.Pose2, points: np.ndarray) -> np.ndarray:
+    """(n, 2) points mapped from the pose's frame to its parent frame."""
+    c, s = np.cos(pose.theta()), np.sin(pose.theta())
+    return points @ np.array([[c, s], [-s, c]]) + [pose.x(), pose.y()]
+
+
+def _xyz(points: np.ndarray) -> kiss_icp_pybind._Vector3dVector:
+    return kiss_icp_pybind._Vector3dVector(np.column_stack([points, np.zeros(len(points))]))
+
+
+class Submap:
+    """Points (with normals) of a few scans in one frame, as KISS-ICP voxel maps (one per voxel
+    size of the coarse-to-fine schedule) and a k-d tree for point-to-line matching.
+
+    Args:
+        points: (n, 2) points in the submap frame.
+        normals: (n, 2) unit normals (NaN where unknown).
+    """
+
+    def __init__(self, points: np.ndarray, normals: np.ndarray, config: RegistrationConfig):
+        self.points = points
+        self.normals = normals
+        self.config = config
+        self._voxel_maps: dict[float, kiss_icp_pybind._VoxelHashMap] = {}
+        self.tree = cKDTree(points)
+
+    def voxel_map(self, size: float) -> kiss_icp_pybind._VoxelHashMap:
+        """The KISS-ICP voxel map at ``size`` m, built on first use."""
+        if size not in self._voxel_maps:
+            voxel_map = kiss_icp_pybind._VoxelHashMap(voxel_size=size, max_distance=1e9,
+                                                      max_points_per_voxel=self.config.max_points_per_voxel)
+            voxel_map._add_points(_xyz(self.points))
+            self._voxel_maps[size] = voxel_map
+        return self._voxel_maps[size]
+
+    @classmethod
+    def from_scans(cls, poses: list[gtsam.Pose2], points: list[np.ndarray], normals: list[np.ndarray],
+                   config: RegistrationConfig) -> "Submap":
+        """Scans (sensor-frame points and normals) placed at ``poses`` in the submap frame."""
+        pts = np.concatenate([transform(p, q) for p, q in zip(poses, points)])
+        nrm = np.concatenate([n @ np.array([[np.cos(p.theta()), np.sin(p.theta())],
+                                            [-np.sin(p.theta()), np.cos(p.theta())]])
+                              for p, n in zip(poses, normals)])
+        return cls(pts, nrm, config)
+
+
+@dataclass
+class Match:
+    """The result of registering a scan to a submap.
+
+    Attributes:
+        pose: the scan's pose in the submap frame.
+        covariance: (3, 3) in the pose's tangent space (x, y, θ), from the point-to-line Hessian.
+        inlier_fraction: share of scan points within ``inlier_distance`` of the submap.
+        degenerate: (k, 3) unit tangent directions the scan cannot observe (k = 0 normally).
+        sigma: residual standard deviation (m).
+    """
+
+    pose: gtsam.Pose2
+    covariance: np.ndarray
+    inlier_fraction: float
+    degenerate: np.ndarray
+    sigma: float
+
+
+class Registration:
+    """KISS-ICP registration (point-to-point, robust kernel) coarse to fine over the voxel sizes,
+    then Gauss–Newton point-to-line refinement with a Cauchy kernel."""
+
+    def __init__(self, config: RegistrationConfig | None = None):
+        self.config = config or RegistrationConfig()
+        self._icp = kiss_icp_pybind._Registration(max_num_iterations=100, convergence_criterion=1e-4,
+                                                  max_num_threads=1)
+
+    def coarse_to_fine(self, points: np.ndarray, submap: Submap, guess: gtsam.Pose2,
+                       start_level: int = 0) -> gtsam.Pose2:
+        """KISS-ICP at each voxel size from ``start_level`` on: each level corrects about one voxel."""
+        estimate = pose_matrix(guess)
+        for size in self.config.voxel_sizes[start_level:]:
+            voxel_map = submap.voxel_map(size)
+            source = np.asarray(kiss_icp_pybind._voxel_down_sample(_xyz(points), 0.5 * size))
+            estimate = self._icp._align_points_to_map(
+                points=kiss_icp_pybind._Vector3dVector(source), voxel_map=voxel_map,
+                initial_guess=estimate, max_correspondance_distance=2.0 * size, kernel=size / 3.0)
+        return matrix_pose(estimate)
+
+    def refine(self, points: np.ndarray, submap: Submap, pose: gtsam.Pose2,
+               prior: tuple[gtsam.Pose2, np.ndarray] | None = None) -> Match:
+        """Point-to-line Gauss–Newton from ``pose`` with a Cauchy kernel.
+
+        ``prior`` = (predicted pose, (3, 3) information) adds the wheel odometry's prediction as a
+        Gaussian prior on the pose, so directions the scene cannot constrain (a featureless
+        corridor) follow the odometry. Without a prior those directions keep their initial value.
+        """
+        c = self.config
+        degenerate = np.zeros((0, 3))
+        hessian, sigma, inliers = np.zeros((3, 3)), c.min_sigma, 0.0
+        start = pose
+        prior_info = prior[1] if prior is not None else np.zeros((3, 3))
+        for iteration in range(c.refine_iterations + 1):
+            world = transform(pose, points)
+            dist, idx = submap.tree.query(world, distance_upper_bound=c.max_correspondence)
+            found = np.isfinite(dist)
+            inliers = float(np.mean(dist < c.inlier_distance)) if len(points) else 0.0
+            n_world = np.full((len(points), 2), np.nan)
+            n_world[found] = submap.normals[idx[found]]
+            use = found & np.isfinite(n_world[:, 0])
+            if use.sum() < c.min_points:
+                hessian = np.zeros((3, 3))
+                break
+            n = n_world[use]
+            r = np.sum(n * (world[use] - submap.points[idx[use]]), axis=1)
+            ct, st = np.cos(pose.theta()), np.sin(pose.theta())
+            n_body = np.column_stack([ct * n[:, 0] + st * n[:, 1], -st * n[:, 0] + ct * n[:, 1]])
+            p = points[use]
+            jac = np.column_stack([n_body, n_body[:, 0] * -p[:, 1] + n_body[:, 1] * p[:, 0]])
+            k = max(3 * sigma, c.min_sigma)
+            w = 1.0 / (1.0 + (r / k) ** 2)
+            sigma = max(float(np.sqrt(np.sum(w * r**2) / max(w.sum() - 3, 1))), c.min_sigma)
+            hessian = jac.T @ (w[:, None] * jac) / sigma**2
+            if iteration == c.refine_iterations:
+                break
+            gradient = jac.T @ (w * r) / sigma**2
+            if prior is not None:
+                gradient = gradient + prior_info @ prior[0].localCoordinates(pose)
+            step = -np.linalg.solve(hessian + prior_info + 1e-9 * np.eye(3), gradient)
+            if prior is None:
+                weak = _degenerate_directions(jac, c.degenerate_eigenvalue)
+                step -= weak.T @ (weak @ step)
+            pose = pose.retract(step)
+            if np.abs(step).max() < c.convergence:
+                break
+        if hessian.any():
+            degenerate = _degenerate_directions(jac, c.degenerate_eigenvalue)
+        else:
+            degenerate = np.eye(3)[:2]
+        if prior is None and len(degenerate):
+            delta = start.localCoordinates(pose)
+            pose = start.retract(delta - degenerate.T @ (degenerate @ delta))
+        covariance = np.linalg.inv(hessian + prior_info + 1e-6 * np.eye(3))
+        return Match(pose, covariance, inliers, degenerate, sigma)
+
+    def register(self, points: np.ndarray, submap: Submap, guess: gtsam.Pose2,
+                 prior: tuple[gtsam.Pose2, np.ndarray] | None = None, start_level: int = 0) -> Match:
+        """Coarse-to-fine KISS-ICP from ``guess`` then point-to-line refinement."""
+        return self.refine(points, submap, self.coarse_to_fine(points, submap, guess, start_level), prior)
+
+
+def _degenerate_directions(jac: np.ndarray, threshold: float) -> np.ndarray:
+    """(k, 3) translation directions whose normalised information Σ nnᵀ / N is below ``threshold``."""
+    n = jac[:, :2]
+    info = n.T @ n / len(n)
+    values, vectors = np.linalg.eigh(info)
+    weak = vectors[:, values < threshold].T
+    return np.column_stack([weak, np.zeros(len(weak))])

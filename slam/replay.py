@@ -1,0 +1,104 @@
+"""Replay a CARMEN log through Pose SLAM and write its results in standard formats."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import gtsam
+import numpy as np
+from tqdm import tqdm
+
+from slam.atomic import write_json_atomic
+from slam.carmen import CarmenLog, write_corrected_log
+from slam.config import SlamConfig
+from slam.evaluation import read_relations, relation_error
+from slam.g2o import write_g2o
+from slam.pose_slam import PoseSlam
+from slam.tum import write_tum
+
+
+@dataclass
+class ReplayResult:
+    """A finished replay: the SLAM object, every scan's final pose, and the wall time (s)."""
+
+    slam: PoseSlam
+    stamps: np.ndarray
+    trajectory: list[gtsam.Pose2]
+    wall_time: float
+
+
+def replay(log: CarmenLog, config: SlamConfig | None = None, progress: bool = False) -> ReplayResult:
+    """Run Pose SLAM over every laser record, with the log's raw odometry as the prediction."""
+    slam = PoseSlam(config)
+    tic = time.perf_counter()
+    for record in tqdm(log, desc=log.path.name, unit="scan", disable=not progress):
+        slam.step(record.odometry, record.scan)
+    wall = time.perf_counter() - tic
+    return ReplayResult(slam, np.array(slam.scan_stamps), slam.trajectory(), wall)
+
+
+def write_replay(out: str | Path, log: CarmenLog, result: ReplayResult,
+                 relations: str | Path | None = None, figure: bool = True) -> dict:
+    """Write trajectory.tum, graph.g2o, corrected.clf, metrics.json (and trajectory.png) to ``out``;
+    returns the metrics."""
+    out = Path(out)
+    slam = result.slam
+    write_tum(out / "trajectory.tum", result.stamps, result.trajectory)
+    poses = dict(enumerate(slam.keyframe_poses()))
+    edges = [(i, j, z, np.linalg.inv(cov)) for i, j, z, cov, _ in slam.graph.edges]
+    write_g2o(out / "graph.g2o", poses, edges)
+    write_corrected_log(out / "corrected.clf", log, result.trajectory)
+    metrics = {
+        "log": str(log.path),
+        "scans": len(log),
+        "skipped_lines": len(log.skipped),
+        "keyframes": len(slam.graph),
+        "loop_closures": len(slam.loops),
+        "loop_candidates_verified": slam.detector.tried,
+        "loop_rejections": dict(slam.detector.rejected),
+        "log_duration_s": log.duration,
+        "wall_time_s": result.wall_time,
+        "real_time_factor": log.duration / result.wall_time if result.wall_time > 0 else None,
+    }
+    if relations is not None:
+        error = relation_error(read_relations(relations), result.stamps, result.trajectory,
+                               [r.odometry for r in log], source=str(log.path))
+        metrics["relation_error"] = error.summary()
+    write_json_atomic(out / "metrics.json", metrics)
+    if figure:
+        trajectory_figure(out / "trajectory.png", result)
+    return metrics
+
+
+def trajectory_figure(path: str | Path, result: ReplayResult, max_points: int = 200000) -> None:
+    """The keyframe scans at their optimised poses, the trajectory, and the loop closures."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from slam.registration import transform
+
+    slam = result.slam
+    poses = slam.keyframe_poses()
+    cloud = np.concatenate([transform(p, s.points()) for p, s in zip(poses, slam.keyframe_scans)])
+    if len(cloud) > max_points:
+        cloud = cloud[np.random.default_rng(0).choice(len(cloud), max_points, replace=False)]
+    xy = np.array([[p.x(), p.y()] for p in result.trajectory])
+    fig, ax = plt.subplots(figsize=(10, 10))
+    ax.scatter(cloud[:, 0], cloud[:, 1], s=0.2, c="0.3", linewidths=0)
+    ax.plot(xy[:, 0], xy[:, 1], "-", color="tab:blue", lw=0.8, label="trajectory")
+    for loop in slam.loops:
+        a, b = poses[loop.candidate.j], poses[loop.candidate.k]
+        ax.plot([a.x(), b.x()], [a.y(), b.y()], "-", color="tab:red", lw=0.8)
+    ax.plot([], [], "-", color="tab:red", label=f"{len(slam.loops)} loop closures")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.legend(loc="best")
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
+    plt.close(fig)

@@ -1,0 +1,54 @@
+"""The `gpexplore replay` and `gpexplore posegraph` commands."""
+
+import json
+
+from typer.testing import CliRunner
+
+from sim.cli import app
+
+runner = CliRunner()
+
+
+def test_posegraph_prints_chi2_and_writes(tmp_path):
+    graph = tmp_path / "tri.g2o"
+    graph.write_text("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1.2 0.1 0\nVERTEX_SE2 2 1.9 1.1 1.7\n"
+                     "EDGE_SE2 0 1 1 0 0 100 0 0 100 0 1000\nEDGE_SE2 1 2 1 0 1.5708 100 0 0 100 0 1000\n"
+                     "EDGE_SE2 0 2 2 0 1.5708 100 0 0 100 0 1000\n")
+    out = tmp_path / "opt.g2o"
+    result = runner.invoke(app, ["posegraph", str(graph), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "chi2" in result.output and out.exists()
+    after = float(result.output.split("chi2 (g2o EdgeSE2):")[1].split("->")[1].split()[0])
+    assert after < 1e-8          # a consistent triangle is solved exactly
+
+
+def test_posegraph_bad_file_names_the_line(tmp_path):
+    graph = tmp_path / "bad.g2o"
+    graph.write_text("EDGE_SE2 0 1 1 0\n")
+    result = runner.invoke(app, ["posegraph", str(graph)])
+    assert result.exit_code == 2 and "bad.g2o:1" in "".join(result.output.split())
+
+
+def test_replay_bad_inputs_are_clear(tmp_path):
+    empty = tmp_path / "empty.clf"
+    empty.write_text("# nothing\n")
+    result = runner.invoke(app, ["replay", str(empty), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2 and "no laser messages" in " ".join(result.output.split())
+    result = runner.invoke(app, ["replay", str(tmp_path / "missing.clf")])
+    assert result.exit_code == 2 and "no such log file" in " ".join(result.output.split())
+
+
+def test_replay_small_log_with_foreign_relations(tmp_path, shared_data):
+    # the first 150 scans of CSAIL; a relations file from another time base is refused clearly
+    lines = (shared_data / "logs" / "mit-csail.clf").read_text().splitlines()[:150]
+    log = tmp_path / "short.clf"
+    log.write_text("\n".join(lines) + "\n")
+    relations = tmp_path / "other.relations"
+    relations.write_text("12.0 13.0 0.1 0 0 0 0 0\n")
+    out = tmp_path / "o"
+    result = runner.invoke(app, ["replay", str(log), "--out", str(out), "--relations", str(relations)])
+    assert result.exit_code == 2 and "different time bases" in " ".join(result.output.split())
+    result = runner.invoke(app, ["replay", str(log), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["scans"] == 150 and (out / "trajectory.png").exists()
