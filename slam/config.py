@@ -16,7 +16,7 @@ class RegistrationConfig(_Config):
     voxel_sizes: list[float] = Field([1.0, 0.5, 0.2, 0.1], min_length=1,
                                      description="KISS-ICP voxel sizes (m), coarse to fine")
     max_points_per_voxel: int = Field(20, ge=1)
-    refine_iterations: int = Field(6, ge=0, description="point-to-line Gauss-Newton iterations")
+    refine_iterations: int = Field(3, ge=0, description="point-to-line Gauss-Newton iterations")
     convergence: float = Field(1e-4, gt=0, description="stop when a step is below this (m, rad)")
     max_correspondence: float = Field(0.3, gt=0, description="point-to-line gate (m)")
     inlier_distance: float = Field(0.1, gt=0, description="a point within this of the map is an inlier (m)")
@@ -78,7 +78,12 @@ class LoopClosureConfig(_Config):
     max_candidates: int = Field(2, ge=1, description="verified per keyframe, most probable first")
     neighbour_keyframes: int = Field(5, ge=0, description="± keyframes around a candidate in its submap")
     yaw_offsets_deg: list[float] = Field([0.0, 7.5, -7.5, 15.0, -15.0], min_length=1)
+    coarse_levels: int = Field(2, ge=0, description="voxel levels run from every yaw offset")
+    coarse_inlier_distance: float = Field(0.3, gt=0, description="m: scoring the coarse starts")
+    coarse_accept: float = Field(0.85, gt=0, le=1, description="a coarse start scoring this stops the search")
     min_inlier_fraction: float = Field(0.6, gt=0, le=1)
+    symmetry_translation: float = Field(0.1, gt=0, description="m: forward ∘ reverse registration gate")
+    symmetry_rotation_deg: float = Field(1.0, gt=0, description="deg: forward ∘ reverse registration gate")
     mahalanobis_gate: float = Field(16.27, gt=0, description="χ²(3) gate (0.999) against the graph's prediction:"
                                                               " a loop beyond it needs a consistent partner")
     mahalanobis_reject: float = Field(200.0, gt=0, description="beyond this a verified loop is rejected outright")

@@ -12,7 +12,7 @@ import numpy as np
 
 from slam.back_end import PoseGraph
 from slam.config import LoopClosureConfig, RegistrationConfig
-from slam.registration import Match, Registration, Submap
+from slam.registration import Match, Registration, Submap, transform
 
 
 @dataclass
@@ -107,23 +107,50 @@ class LoopClosureDetector:
                                    [scans[i][0] for i in members], [scans[i][1] for i in members],
                                    self.registration.config)
         points = scans[k][0]
-        best: Match | None = None
+        # coarse levels from each yaw offset, scored by the share of points near the submap;
+        # the fine levels and the refinement only from the best start
+        reg = self.registration
+        coarse = min(c.coarse_levels, len(reg.config.voxel_sizes) - 1)
+        best_start, best_score = None, -1.0
         for offset in np.radians(c.yaw_offsets_deg):
             guess = candidate.predicted.compose(gtsam.Pose2(0.0, 0.0, float(offset)))
-            match = self.registration.register(points, submap, guess)
-            if best is None or match.inlier_fraction > best.inlier_fraction:
-                best = match
-            if best.inlier_fraction >= c.min_inlier_fraction:
+            start = reg.coarse_to_fine(points, submap, guess, stop_level=coarse)
+            dist, _ = submap.tree.query(transform(start, points), distance_upper_bound=c.coarse_inlier_distance)
+            score = float(np.mean(np.isfinite(dist)))
+            if score > best_score:
+                best_start, best_score = start, score
+            if score >= c.coarse_accept:
                 break
+        best = reg.register(points, submap, best_start, start_level=max(coarse - 1, 0))
         if best is None or best.inlier_fraction < c.min_inlier_fraction:
             self.rejected["inliers"] += 1
             return None
         if len(best.degenerate):
             self.rejected["degenerate"] += 1
             return None
+        if not self._symmetric(best, j, k, graph, scans):
+            self.rejected["asymmetric"] += 1
+            return None
         error = candidate.predicted.localCoordinates(best.pose)
         d2 = float(error @ np.linalg.solve(candidate.covariance + best.covariance, error))
         return LoopClosure(candidate, best, d2)
+
+    def _symmetric(self, match: Match, j: int, k: int, graph: PoseGraph,
+                   scans: list[tuple[np.ndarray, np.ndarray]]) -> bool:
+        """Register keyframe j's scan the other way, to the submap of k and its predecessors (in
+        k's frame), from the inverse of the loop: a biased local minimum of a poorly overlapping
+        match rarely agrees with its reverse."""
+        c = self.config
+        members = range(max(0, k - c.neighbour_keyframes), k + 1)
+        xk = graph.pose(k)
+        submap = Submap.from_scans([xk.between(graph.pose(i)) for i in members],
+                                   [scans[i][0] for i in members], [scans[i][1] for i in members],
+                                   self.registration.config)
+        coarse = min(c.coarse_levels, len(self.registration.config.voxel_sizes) - 1)
+        back = self.registration.register(scans[j][0], submap, match.pose.inverse(), start_level=coarse)
+        loop = match.pose.compose(back.pose)
+        return bool(np.hypot(loop.x(), loop.y()) < c.symmetry_translation
+                    and abs(loop.theta()) < np.radians(c.symmetry_rotation_deg))
 
     def consistent(self, a: LoopClosure, b: LoopClosure, graph: PoseGraph) -> bool:
         """Pairwise consistency of two loops from different keyframes: b's measurement predicted

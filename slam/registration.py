@@ -120,10 +120,11 @@ class Registration:
                                                   max_num_threads=1)
 
     def coarse_to_fine(self, points: np.ndarray, submap: Submap, guess: gtsam.Pose2,
-                       start_level: int = 0) -> gtsam.Pose2:
-        """KISS-ICP at each voxel size from ``start_level`` on: each level corrects about one voxel."""
+                       start_level: int = 0, stop_level: int | None = None) -> gtsam.Pose2:
+        """KISS-ICP at each voxel size from ``start_level`` up to (not including) ``stop_level``:
+        each level corrects about one voxel."""
         estimate = pose_matrix(guess)
-        for size in self.config.voxel_sizes[start_level:]:
+        for size in self.config.voxel_sizes[start_level:stop_level]:
             voxel_map = submap.voxel_map(size)
             source = np.asarray(kiss_icp_pybind._voxel_down_sample(_xyz(points), 0.5 * size))
             estimate = self._icp._align_points_to_map(
