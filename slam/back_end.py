@@ -9,6 +9,16 @@ import numpy as np
 from slam.config import BackEndConfig
 
 
+def well_conditioned(covariance: np.ndarray, min_sigma: float = 1e-4, max_sigma: float = 100.0) -> np.ndarray:
+    """A symmetric (3, 3) covariance with standard deviations clipped to [min_sigma, max_sigma]:
+    a near-singular or huge one (a degenerate match, a lost track) would make iSAM2's Cholesky
+    factorisation indeterminate."""
+    covariance = 0.5 * (covariance + covariance.T)
+    values, vectors = np.linalg.eigh(covariance)
+    values = np.clip(values, min_sigma**2, max_sigma**2)
+    return (vectors * values) @ vectors.T
+
+
 class PoseGraph:
     """Incremental smoothing of keyframe poses (keys 0, 1, 2, … in insertion order)."""
 
@@ -40,6 +50,7 @@ class PoseGraph:
         i = len(self) - 1
         j = i + 1
         graph, values = gtsam.NonlinearFactorGraph(), gtsam.Values()
+        covariance = well_conditioned(covariance)
         graph.add(gtsam.BetweenFactorPose2(i, j, measurement, gtsam.noiseModel.Gaussian.Covariance(covariance)))
         values.insert(j, self.pose(i).compose(measurement))
         self.edges.append((i, j, measurement, covariance, False))
@@ -51,6 +62,7 @@ class PoseGraph:
         """A loop closure (pose j in frame i) with a Cauchy kernel; returns the largest keyframe
         displacement it caused (m)."""
         before = self.positions()
+        covariance = well_conditioned(covariance)
         graph = gtsam.NonlinearFactorGraph()
         noise = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Cauchy.Create(cauchy_k),
                                                gtsam.noiseModel.Gaussian.Covariance(covariance))

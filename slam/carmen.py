@@ -12,7 +12,8 @@ FLASER odometry slot. With ODOM lines it is built from them, the most recent one
 are *not* a raw odometry trajectory: right after each scan GMapping writes an ODOM line with
 timestamp 0 that repeats the corrected pose, and the following ODOM lines continue from that
 corrected pose (the wheel increments since the scan applied to it). The reader detects this
-re-basing and chains the increments into a proper odometry trajectory:
+re-basing (an ODOM line right after a scan repeating its pose; the timestamp meant to be 0 is
+sometimes garbage) and chains the increments into a proper odometry trajectory:
 ``odometry[k+1] = odometry[k] ∘ pose[k]⁻¹ ∘ ODOM_last_before(k+1)``, so the relative motion between
 consecutive records' ``odometry`` is the wheel odometry's, as a SLAM front end needs.
 """
@@ -110,11 +111,12 @@ class CarmenLog:
                         kind = fields[0]
                         if kind == "ODOM":
                             odom, stamp = _parse_odom(fields)
-                            if stamp == 0.0 and after_laser and self.records:
-                                if _same(odom, self.records[-1].pose):
-                                    rebase = odom
-                                    self.rebased_odometry = True
-                                    last_odom = odom
+                            if after_laser and self.records and _same(odom, self.records[-1].pose):
+                                # GMapping's repeat of the corrected pose (its timestamp is meant to
+                                # be 0 but is sometimes garbage, e.g. 4.58e-72 in intel)
+                                rebase = odom
+                                self.rebased_odometry = True
+                                last_odom = odom
                             else:
                                 last_odom = odom
                                 self.has_odom_lines = True

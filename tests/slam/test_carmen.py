@@ -69,7 +69,8 @@ def test_gmapping_rebased_odom_lines_are_chained_into_raw_odometry(tmp_path):
         lines.append(f"ODOM {odom.x()} {odom.y()} {odom.theta()} 0 0 0 {k + 0.5} pippo {k + 0.5}\n")
         p = (c.x(), c.y(), c.theta())
         lines.append(flaser([1.0] * 180, p, p, k + 1.0))
-        lines.append(f"ODOM {c.x()} {c.y()} {c.theta()} 0 0 0 0 pippo 0\n")
+        stamp = ["0", "4.58333e-72", "5.21"][k]      # meant to be 0; intel has garbage there
+        lines.append(f"ODOM {c.x()} {c.y()} {c.theta()} 0 0 0 {stamp} pippo {stamp}\n")
         lines.append("NEFF 30\n")
     path = tmp_path / "c.log"
     path.write_text("".join(lines))
@@ -94,13 +95,14 @@ def test_corrected_log_roundtrip(tmp_path):
         assert new.scan.timestamp == rec.scan.timestamp
 
 
-def test_real_corrected_log_odometry_is_wheel_odometry(shared_data):
-    log = CarmenLog(shared_data / "logs" / "freiburg-079-corrected.log.gz")
-    assert log.rebased_odometry and len(log) == 4791
+@pytest.mark.parametrize("name, scans", [("freiburg-079-corrected.log.gz", 4791), ("intel-corrected.log.gz", 910)])
+def test_real_corrected_log_odometry_is_wheel_odometry(shared_data, name, scans):
+    log = CarmenLog(shared_data / "logs" / name)
+    assert log.rebased_odometry and len(log) == scans
     # the wheel odometry drifts away from the SLAM poses over the run (metres by the end)
     end = log[-1].pose.between(log[0].pose.compose(log[0].odometry.between(log[-1].odometry)))
     assert math.hypot(end.x(), end.y()) > 1.0
     # ...but step by step it is close to the SLAM motion (a few centimetres)
     steps = [np.hypot(*(a.pose.between(b.pose).translation() - a.odometry.between(b.odometry).translation()))
              for a, b in zip(log.records[:-1], log.records[1:])]
-    assert np.median(steps) < 0.04
+    assert np.median(steps) < 0.06 and max(steps) < 0.5     # no jumps from missed re-basing
