@@ -116,7 +116,8 @@ class Registration:
 
     def __init__(self, config: RegistrationConfig | None = None):
         self.config = config or RegistrationConfig()
-        self._icp = kiss_icp_pybind._Registration(max_num_iterations=100, convergence_criterion=1e-4,
+        self._icp = kiss_icp_pybind._Registration(max_num_iterations=self.config.icp_iterations,
+                                                  convergence_criterion=self.config.icp_convergence,
                                                   max_num_threads=1)
 
     def coarse_to_fine(self, points: np.ndarray, submap: Submap, guess: gtsam.Pose2,
