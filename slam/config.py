@@ -17,7 +17,7 @@ class RegistrationConfig(_Config):
                                      description="KISS-ICP voxel sizes (m), coarse to fine")
     max_points_per_voxel: int = Field(20, ge=1)
     icp_iterations: int = Field(100, ge=1, description="KISS-ICP iterations per voxel level")
-    icp_convergence: float = Field(3e-4, gt=0, description="KISS-ICP stops below this step")
+    icp_convergence: float = Field(1e-4, gt=0, description="KISS-ICP stops below this step")
     refine_iterations: int = Field(3, ge=0, description="point-to-line Gauss-Newton iterations")
     convergence: float = Field(1e-4, gt=0, description="stop when a step is below this (m, rad)")
     max_correspondence: float = Field(0.3, gt=0, description="point-to-line gate (m)")
