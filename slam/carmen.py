@@ -110,7 +110,7 @@ class CarmenLog:
                     try:
                         kind = fields[0]
                         if kind == "ODOM":
-                            odom, stamp = _parse_odom(fields)
+                            odom, _ = _parse_odom(fields)
                             if after_laser and self.records and _same(odom, self.records[-1].pose):
                                 # GMapping's repeat of the corrected pose (its timestamp is meant to
                                 # be 0 but is sometimes garbage, e.g. 4.58e-72 in intel)

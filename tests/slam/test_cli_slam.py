@@ -52,3 +52,24 @@ def test_replay_small_log_with_foreign_relations(tmp_path, shared_data):
     assert result.exit_code == 0, result.output
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["scans"] == 150 and (out / "trajectory.png").exists()
+
+
+def test_replay_config_file_is_validated(tmp_path, shared_data):
+    import yaml
+
+    from slam.config import SlamConfig
+
+    lines = (shared_data / "logs" / "mit-csail.clf").read_text().splitlines()[:60]
+    log = tmp_path / "short.clf"
+    log.write_text("\n".join(lines) + "\n")
+    config = SlamConfig()
+    config.loop_closure.enabled = False
+    good = tmp_path / "good.yaml"
+    good.write_text(yaml.safe_dump(config.model_dump()))
+    assert SlamConfig.model_validate(yaml.safe_load(good.read_text())) == config   # dump → reload
+    result = runner.invoke(app, ["replay", str(log), "--out", str(tmp_path / "o"), "--config", str(good)])
+    assert result.exit_code == 0, result.output
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("loop_closure:\n  serch_radius: 3\n")
+    result = runner.invoke(app, ["replay", str(log), "--config", str(bad)])
+    assert result.exit_code == 2 and "serch_radius" in result.output

@@ -1,6 +1,5 @@
 """g2o pose graphs: reading, χ², writing and the Levenberg–Marquardt back end."""
 
-import math
 
 import gtsam
 import numpy as np
