@@ -18,6 +18,10 @@ class CostmapConfig(BaseModel):
         0.6, gt=0, lt=1, description="Λo above this is occupied too: walls are weak in the fused Λ"
     )
     margin: float = Field(0.05, ge=0, description="meters of clearance added to the robot radius")
+    unknown_clearance: float = Field(
+        0.1, ge=0, description="meters the robot's centre keeps from unknown cells; occupied "
+        "cells are kept at radius + margin. The COM leaves a band near walls unknown, so "
+        "inflating unknown space by the full radius would close doors the robot fits through")
 
     @model_validator(mode="after")
     def _ordered(self):
@@ -38,11 +42,13 @@ def classify(prob: np.ndarray, config: CostmapConfig, prob_occ: np.ndarray | Non
 
 def passable(prob: np.ndarray, resolution: float, radius: float, config: CostmapConfig,
              prob_occ: np.ndarray | None = None) -> np.ndarray:
-    """(h, w) bool: free cells at least ``radius + margin`` meters from any occupied or unknown cell.
+    """(h, w) bool: known-free cells more than ``radius + margin`` meters from any occupied cell
+    and more than ``unknown_clearance`` from any unknown one (off the map counts as unknown)."""
+    free, occupied = classify(prob, config, prob_occ)
 
-    Occupied and unknown space are both treated as obstacles and inflated by the robot's
-    radius, so a path through passable cells keeps the whole robot in known free space.
-    """
-    free, _ = classify(prob, config, prob_occ)
-    clearance = ndimage.distance_transform_edt(np.pad(free, 1), sampling=resolution)[1:-1, 1:-1]
-    return free & (clearance > radius + config.margin)
+    def distance_to(mask):
+        return ndimage.distance_transform_edt(np.pad(~mask, 1, constant_values=False),
+                                              sampling=resolution)[1:-1, 1:-1]
+
+    return (free & (distance_to(occupied) > radius + config.margin)
+            & (distance_to(~free & ~occupied) > config.unknown_clearance))

@@ -240,5 +240,127 @@ def posegraph(
         console.print(f"optimised graph: {out}")
 
 
+def _episode_config(path: Optional[Path]):
+    import yaml
+    from pydantic import ValidationError
+
+    from sim.episode import EpisodeConfig
+
+    if path is None:
+        return EpisodeConfig()
+    try:
+        return EpisodeConfig.model_validate(yaml.safe_load(path.read_text()) or {})
+    except (OSError, yaml.YAMLError, ValidationError) as err:
+        raise typer.BadParameter(f"{path}: {err}", param_hint="--config") from None
+
+
+def _world_and_start(world: str, size, resolution, start, radius: float):
+    from sim.worlds import BUILTIN_WORLDS, corner_start
+
+    w = _load(world, size, resolution)
+    if start is not None:
+        pose = gtsam.Pose2(*start)
+    elif world in BUILTIN_WORLDS:
+        pose = BUILTIN_WORLDS[world]().start
+    else:
+        pose = corner_start(w, radius)
+    if w.collides((pose.x(), pose.y()), radius):
+        raise typer.BadParameter(f"start ({pose.x():.2f}, {pose.y():.2f}) is not free for a robot of "
+                                 f"radius {radius} m", param_hint="--start")
+    return w, pose
+
+
+@app.command()
+def explore(
+    world: str = typer.Option("cave", help="built-in name (cave, office), bitmap or ROS .yaml"),
+    size: Optional[tuple[float, float]] = typer.Option(None, help="bitmap size in meters: --size W H"),
+    resolution: Optional[float] = typer.Option(None, help="bitmap resolution, m/pixel"),
+    start: Optional[tuple[float, float, float]] = typer.Option(
+        None, help="start X Y THETA (m, m, rad); default: the built-in start or a free corner"),
+    method: str = typer.Option("gp", help="gp (C-frontier on the COM) or grid (nearest frontier)"),
+    poses: str = typer.Option("slam", help="slam (Pose SLAM) or truth (perfect localisation)"),
+    seed: int = typer.Option(0, help="seed of every random draw"),
+    max_steps: Optional[int] = typer.Option(None, help="scans before the run stops"),
+    config: Optional[Path] = typer.Option(None, help="run configuration (YAML, EpisodeConfig)"),
+    out: Path = typer.Option(Path("results/explore"), help="output directory"),
+):
+    """Explore a world with SLAM, the map and the frontier explorer in the loop; write results."""
+    from sim.episode import run_episode
+    from sim.results import write_episode
+
+    cfg = _config_for(_episode_config(config), method, poses, max_steps)
+    w, pose = _world_and_start(world, size, resolution, start, cfg.robot.radius)
+    result = run_episode(w, pose, cfg, seed=seed, progress=True)
+    write_episode(out, result)
+    m = result.metrics
+    console.print(f"{m['termination_reason']}: {m['travel_distance_m']:.1f} m in {m['sim_time_s']:.0f} s of "
+                  f"robot time ({m['wall_time_s']:.1f} s wall), coverage {100 * m['coverage']:.1f} %, "
+                  f"AUC {m['auc']:.3f}, ATE {m['ate_rmse_m']:.3f} m, {m['loop_closures']} loop closures, "
+                  f"{m['collisions']} collisions")
+    console.print(f"results in {out}/: metrics.json, trajectory.tum, ground_truth.tum, graph.g2o, "
+                  f"map.pgm, map.yaml{', com.npz' if method == 'gp' else ''}, figures/")
+
+
+def _config_for(cfg, method: str, poses: str, max_steps: Optional[int]):
+    from pydantic import ValidationError
+
+    try:
+        stack = cfg.stack.model_copy(update={
+            "poses": poses,
+            "explorer": cfg.stack.explorer.model_validate({**cfg.stack.explorer.model_dump(),
+                                                           "method": method})})
+        cfg = cfg.model_validate({**cfg.model_dump(), "stack": stack.model_dump(),
+                                  **({"max_steps": max_steps} if max_steps else {})})
+    except ValidationError as err:
+        raise typer.BadParameter(str(err), param_hint="--method/--poses/--max-steps") from None
+    return cfg
+
+
+@app.command()
+def compare(
+    world: str = typer.Option("cave", help="built-in name (cave, office), bitmap or ROS .yaml"),
+    size: Optional[tuple[float, float]] = typer.Option(None, help="bitmap size in meters: --size W H"),
+    resolution: Optional[float] = typer.Option(None, help="bitmap resolution, m/pixel"),
+    start: Optional[tuple[float, float, float]] = typer.Option(None, help="start X Y THETA"),
+    seeds: int = typer.Option(10, min=1, help="runs per method (seeds 0..N-1)"),
+    methods: str = typer.Option("gp,grid", help="comma-separated methods"),
+    poses: str = typer.Option("slam", help="slam or truth"),
+    config: Optional[Path] = typer.Option(None, help="run configuration (YAML, EpisodeConfig)"),
+    out: Path = typer.Option(Path("results/compare"), help="output directory (runs resume from it)"),
+):
+    """Run the methods over seeded runs and print the paper's Table I (mean ± standard error)."""
+    from rich.table import Table
+
+    from sim.campaign import run_campaign, table, termination_counts
+    from slam.atomic import write_json_atomic
+
+    base = _episode_config(config)
+    configs = {m: _config_for(base, m, poses, None) for m in methods.split(",")}
+    w, pose = _world_and_start(world, size, resolution, start, base.robot.radius)
+
+    def report(method, seed, m):
+        console.print(f"{method} seed {seed}: {m['termination_reason']}, {m['travel_distance_m']:.1f} m, "
+                      f"coverage {100 * m['coverage']:.1f} %, {m['wall_time_s']:.1f} s wall")
+
+    results = run_campaign(w, pose, configs, list(range(seeds)), out, progress=report)
+    rows = table(results)
+    write_json_atomic(out / "table.json", {"world": w.name, "start": [pose.x(), pose.y(), pose.theta()],
+                                           "rows": rows, "termination": termination_counts(results)})
+    view = Table(title=f"{w.name}: {seeds} runs per method, mean ± standard error")
+    view.add_column("metric")
+    for method in configs:
+        view.add_column(method, justify="right")
+    for row in rows:
+        cells = []
+        for method in configs:
+            v = row[method]
+            cells.append("—" if v["mean"] is None else
+                         f"{v['mean']:.4g} ± {v['stderr']:.2g}" + (f" ({v['n']})" if v["n"] < seeds else ""))
+        view.add_row(row["metric"], *cells)
+    console.print(view)
+    console.print(f"ended: {termination_counts(results)}")
+    console.print(f"runs and table.json in {out}/")
+
+
 if __name__ == "__main__":
     app()

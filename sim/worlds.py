@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import gtsam
 import numpy as np
+from scipy import ndimage
 
 from sim.world import World
 
@@ -114,3 +115,22 @@ def office() -> BuiltinWorld:
 
 
 BUILTIN_WORLDS = {"cave": cave, "office": office}
+
+
+def corner_start(world: World, radius: float, margin: float = 0.5) -> gtsam.Pose2:
+    """A free pose near the lower-left corner, in the largest free region, facing the centre.
+
+    The robot's disc plus ``margin`` meters fits there; the largest region is taken so that
+    the robot does not start inside a hollow obstacle.
+    """
+    free = world.clearance() >= radius + margin
+    labels, n = ndimage.label(free)
+    if n == 0:
+        raise ValueError(f"{world.name}: no free place for a robot of radius {radius} m")
+    largest = 1 + int(np.argmax(np.bincount(labels.ravel())[1:]))
+    iy, ix = np.nonzero(labels == largest)
+    xy = world.center_of(np.column_stack([ix, iy]))
+    xmin, xmax, ymin, ymax = world.extent
+    best = xy[np.argmin(np.hypot(xy[:, 0] - xmin, xy[:, 1] - ymin))]
+    heading = np.arctan2((ymin + ymax) / 2 - best[1], (xmin + xmax) / 2 - best[0])
+    return gtsam.Pose2(float(best[0]), float(best[1]), float(heading))

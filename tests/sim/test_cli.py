@@ -49,3 +49,34 @@ def test_bitmap_without_scale_is_a_clear_error(tmp_path):
     result = runner.invoke(app, ["world", str(tmp_path / "m.png")])
     assert result.exit_code == 2
     assert "no scale" in result.output
+
+
+def test_explore_writes_every_result(tmp_path):
+    from PIL import Image
+
+    pixels = np.full((60, 100), 255, dtype=np.uint8)  # 5 m x 3 m at 0.05 m, walls around
+    pixels[:2], pixels[-2:], pixels[:, :2], pixels[:, -2:] = 0, 0, 0, 0
+    pixels[20:40, 50:54] = 0
+    Image.fromarray(pixels).save(tmp_path / "room.png")
+    out = tmp_path / "run"
+    result = runner.invoke(app, ["explore", "--world", str(tmp_path / "room.png"), "--size", "5", "3",
+                                 "--max-steps", "400", "--seed", "2", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    metrics = json.loads((out / "metrics.json").read_text())
+    for key in ("start", "travel_distance_m", "sim_time_s", "wall_time_s", "steps", "keyframes",
+                "loop_closures", "regenerations", "final_map_entropy_nats", "entropy_rate_nats_per_step",
+                "coverage", "auc", "ate_rmse_m", "collisions", "termination_reason"):
+        assert key in metrics, key
+    assert metrics["termination_reason"] in ("frontiers_exhausted", "no_reachable_goal")
+    assert metrics["coverage"] > 0.95 and metrics["collisions"] == 0
+    for name in ("trajectory.tum", "ground_truth.tum", "graph.g2o", "com.npz", "map.pgm", "map.yaml",
+                 "figures/map_trajectory.png", "figures/frontier_maps.png", "figures/com_panels.png",
+                 "figures/entropy.png"):
+        assert (out / name).stat().st_size > 0, name
+    stamps, poses = read_tum(out / "trajectory.tum")
+    assert len(poses) == metrics["steps"]
+
+
+def test_explore_rejects_a_blocked_start(tmp_path):
+    result = runner.invoke(app, ["explore", "--start", "0.1", "0.1", "0", "--out", str(tmp_path)])
+    assert result.exit_code == 2 and "not free" in result.output

@@ -1,0 +1,57 @@
+"""Write what an exploration run produced: metrics, trajectories, pose graph, maps and figures."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from mapping.export import save_com, write_ros_map
+from sim.episode import EpisodeResult
+from sim.figures import entropy_figure, frontier_figure, map_figure, positions
+from slam.atomic import write_json_atomic
+from slam.g2o import write_g2o
+from slam.tum import write_tum
+
+
+def write_episode(out: str | Path, result: EpisodeResult) -> None:
+    """metrics.json, trajectory.tum, ground_truth.tum, graph.g2o, com.npz (GP method),
+    map.pgm + map.yaml and figures/ in ``out``; metrics.json is written last, so a folder
+    that has it holds a finished run."""
+    out = Path(out)
+    stack = result.stack
+    write_tum(out / "trajectory.tum", result.stamps, result.estimate)
+    write_tum(out / "ground_truth.tum", result.stamps, result.truth)
+    keyframes = stack.keyframe_poses()
+    if stack.slam is not None:
+        edges = [(i, j, z, np.linalg.inv(cov)) for i, j, z, cov, _ in stack.slam.graph.edges]
+        write_g2o(out / "graph.g2o", dict(enumerate(keyframes)), edges)
+    prob = stack.map.prob()
+    if stack.method == "gp":
+        save_com(out / "com.npz", stack.map)
+    write_ros_map(out / "map.pgm", prob, stack.map.origin, stack.map_resolution)
+    _figures(out / "figures", result, prob)
+    write_json_atomic(out / "metrics.json", result.metrics)
+
+
+def _figures(folder: Path, result: EpisodeResult, prob: np.ndarray) -> None:
+    stack = result.stack
+    m = result.metrics
+    loops = []
+    if stack.slam is not None:
+        xy = np.array([[p.x(), p.y()] for p in stack.keyframe_poses()])
+        loops = [(xy[loop.candidate.j], xy[loop.candidate.k]) for loop in stack.slam.loops]
+    title = (f"{m['world']} ({m['method']}): {m['travel_distance_m']:.0f} m, coverage "
+             f"{100 * m['coverage']:.1f} %, {m['termination_reason']}")
+    map_figure(folder / "map_trajectory.png", prob, stack.map.frame.extent, result.estimate,
+               result.truth, loops, title)
+    frontier_figure(folder / "frontier_maps.png", result.snapshots)
+    entropy_figure(folder / "entropy.png", {m["method"]: result.curve})
+    if stack.method == "gp":
+        from mapping.figure import com_figure
+
+        hits = [p.transformFrom(s.points().T).T for p, s in zip(stack.keyframe_poses(),
+                                                                   stack.keyframe_scans())]
+        com_figure(folder / "com_panels.png", stack.map, positions(stack.keyframe_poses()),
+                   np.vstack(hits) if hits else None, title)
+
