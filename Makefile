@@ -26,7 +26,7 @@ $(VENV)/.installed-test: pyproject.toml $(VENV)/.installed
 	touch $@
 
 demo: $(VENV)/.installed
-	$(BIN)/gpexplore demo --out $(OUT)
+	$(BIN)/gpexplore explore --out $(OUT)
 
 # pytest exits 5 when it collected nothing: that is a failure, not a pass.
 test: $(VENV)/.installed-test
