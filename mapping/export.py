@@ -3,30 +3,16 @@
 from __future__ import annotations
 
 import io
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import yaml
 
-from slam.atomic import write_text_atomic
+from slam.atomic import write_bytes_atomic, write_text_atomic
 
 #: map_server's usual thresholds on the occupancy probability.
 OCCUPIED_THRESH = 0.65
 FREE_THRESH = 0.25
-
-
-def _write_bytes_atomic(path: Path, data: bytes) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise
 
 
 def save_com(path: str | Path, com) -> None:
@@ -37,7 +23,7 @@ def save_com(path: str | Path, com) -> None:
     np.savez_compressed(buf, prob=com.prob(), prob_occ=com.prob_occ(), prob_free=com.prob_free(),
                         var=com.var(), var_occ=com.var_occ(), var_free=com.var_free(),
                         origin=np.asarray(com.origin, float), resolution=np.float64(com.resolution))
-    _write_bytes_atomic(Path(path), buf.getvalue())
+    write_bytes_atomic(Path(path), buf.getvalue())
 
 
 def write_ros_map(pgm_path: str | Path, prob: np.ndarray, origin: np.ndarray, resolution: float,
@@ -57,7 +43,7 @@ def write_ros_map(pgm_path: str | Path, prob: np.ndarray, origin: np.ndarray, re
     image[prob <= free_thresh] = 254
     image = image[::-1]                                   # PGM rows run top to bottom
     h, w = image.shape
-    _write_bytes_atomic(pgm_path, f"P5\n{w} {h}\n255\n".encode() + image.tobytes())
+    write_bytes_atomic(pgm_path, f"P5\n{w} {h}\n255\n".encode() + image.tobytes())
     corner = np.asarray(origin, float) - 0.5 * resolution
     meta = {"image": pgm_path.name, "mode": "trinary", "resolution": float(resolution),
             "origin": [float(corner[0]), float(corner[1]), 0.0], "negate": 0,

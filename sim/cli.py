@@ -190,18 +190,23 @@ def replay(
     console.print(f"results in {out}/: trajectory.tum, graph.g2o, corrected.clf, metrics.json, trajectory.png")
 
 
-def _slam_config(path: Optional[Path]):
+def _yaml_config(path: Optional[Path], model):
+    """A pydantic configuration ``model`` from a YAML file, or its defaults without one."""
     import yaml
     from pydantic import ValidationError
 
-    from slam.config import SlamConfig
-
     if path is None:
-        return SlamConfig()
+        return model()
     try:
-        return SlamConfig.model_validate(yaml.safe_load(path.read_text()) or {})
+        return model.model_validate(yaml.safe_load(path.read_text()) or {})
     except (OSError, yaml.YAMLError, ValidationError) as err:
         raise typer.BadParameter(f"{path}: {err}", param_hint="--config") from None
+
+
+def _slam_config(path: Optional[Path]):
+    from slam.config import SlamConfig
+
+    return _yaml_config(path, SlamConfig)
 
 
 @app.command()
@@ -241,17 +246,9 @@ def posegraph(
 
 
 def _episode_config(path: Optional[Path]):
-    import yaml
-    from pydantic import ValidationError
-
     from sim.episode import EpisodeConfig
 
-    if path is None:
-        return EpisodeConfig()
-    try:
-        return EpisodeConfig.model_validate(yaml.safe_load(path.read_text()) or {})
-    except (OSError, yaml.YAMLError, ValidationError) as err:
-        raise typer.BadParameter(f"{path}: {err}", param_hint="--config") from None
+    return _yaml_config(path, EpisodeConfig)
 
 
 def _world_and_start(world: str, size, resolution, start, radius: float):
