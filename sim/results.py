@@ -10,7 +10,6 @@ from mapping.export import save_com, write_ros_map
 from sim.episode import EpisodeResult
 from sim.figures import entropy_figure, frontier_figure, map_figure, positions
 from slam.atomic import write_json_atomic
-from slam.g2o import write_g2o
 from slam.tum import write_tum
 
 
@@ -22,10 +21,8 @@ def write_episode(out: str | Path, result: EpisodeResult) -> None:
     stack = result.stack
     write_tum(out / "trajectory.tum", result.stamps, result.estimate)
     write_tum(out / "ground_truth.tum", result.stamps, result.truth)
-    keyframes = stack.keyframe_poses()
     if stack.slam is not None:
-        edges = [(i, j, z, np.linalg.inv(cov)) for i, j, z, cov, _ in stack.slam.graph.edges]
-        write_g2o(out / "graph.g2o", dict(enumerate(keyframes)), edges)
+        stack.slam.write_g2o(out / "graph.g2o")
     prob = stack.map.prob()
     if stack.method == "gp":
         save_com(out / "com.npz", stack.map)

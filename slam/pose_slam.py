@@ -11,6 +11,7 @@ import numpy as np
 from slam.back_end import PoseGraph
 from slam.config import SlamConfig
 from slam.front_end import ScanOdometry
+from slam.g2o import write_g2o
 from slam.loop_closure import LoopClosure, LoopClosureDetector
 from slam.registration import scan_normals
 from slam.scan import LaserScan
@@ -143,3 +144,8 @@ class PoseSlam:
 
     def keyframe_poses(self) -> list[gtsam.Pose2]:
         return self.graph.poses()
+
+    def write_g2o(self, path) -> None:
+        """The keyframe graph as g2o: optimised poses, odometry and loop edges (information)."""
+        edges = [(i, j, z, np.linalg.inv(cov)) for i, j, z, cov, _ in self.graph.edges]
+        write_g2o(path, dict(enumerate(self.keyframe_poses())), edges)

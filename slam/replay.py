@@ -14,7 +14,6 @@ from slam.atomic import write_json_atomic
 from slam.carmen import CarmenLog, write_corrected_log
 from slam.config import SlamConfig
 from slam.evaluation import read_relations, relation_error
-from slam.g2o import write_g2o
 from slam.pose_slam import PoseSlam
 from slam.tum import write_tum
 
@@ -46,9 +45,7 @@ def write_replay(out: str | Path, log: CarmenLog, result: ReplayResult,
     out = Path(out)
     slam = result.slam
     write_tum(out / "trajectory.tum", result.stamps, result.trajectory)
-    poses = dict(enumerate(slam.keyframe_poses()))
-    edges = [(i, j, z, np.linalg.inv(cov)) for i, j, z, cov, _ in slam.graph.edges]
-    write_g2o(out / "graph.g2o", poses, edges)
+    slam.write_g2o(out / "graph.g2o")
     write_corrected_log(out / "corrected.clf", log, result.trajectory)
     metrics = {
         "log": str(log.path),
