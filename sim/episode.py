@@ -92,7 +92,6 @@ class _Evaluator:
     def auc(self, stack: Stack, prob: np.ndarray) -> float:
         """ROC AUC of the map against the true occupancy, over the map's observed cells."""
         frame = stack.map.frame
-        h, w = prob.shape
         iy, ix = np.nonzero(np.abs(prob - 0.5) > 0.01)
         xy = frame.origin + frame.resolution * np.column_stack([ix, iy])
         return roc_auc(self.world.is_occupied(xy), prob[iy, ix])

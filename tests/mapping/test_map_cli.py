@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 from mapping.export import write_ros_map
 from mapping.metrics import coverage, map_entropy, roc_auc
 from sim.cli import app
-from simworlds import corridor_world, scans_at
+from simworlds import corridor_world
 
 
 def write_flaser_log(path, poses, scans):

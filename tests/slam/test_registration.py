@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from slam.config import RegistrationConfig
-from slam.registration import Registration, Submap, scan_normals, transform
+from slam.registration import Registration, Submap, scan_normals
 from slam.scan import LaserScan, fov_angles
 
 
