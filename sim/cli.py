@@ -180,14 +180,19 @@ def replay(
     except (RelationsError, FileNotFoundError) as err:
         console.print(f"[red]error:[/red] {err}")
         raise typer.Exit(2) from None
-    console.print(f"{metrics['scans']} scans, {metrics['keyframes']} keyframes, {metrics['loop_closures']} "
-                  f"loop closures in {metrics['wall_time_s']:.1f} s ({metrics['real_time_factor']:.1f}x real time)")
+    console.print(_replay_summary(metrics))
     if "relation_error" in metrics:
         for name, e in metrics["relation_error"].items():
             if isinstance(e, dict) and e["n"]:
                 console.print(f"relation error {name} (n={e['n']}): {e['trans_mean_m']:.4f} ± {e['trans_std_m']:.4f} m, "
                               f"{e['rot_mean_deg']:.3f} ± {e['rot_std_deg']:.3f} deg")
     console.print(f"results in {out}/: trajectory.tum, graph.g2o, corrected.clf, metrics.json, trajectory.png")
+
+
+def _replay_summary(metrics: dict) -> str:
+    """One line from a replay's metrics: scans, keyframes, loop closures, wall time."""
+    return (f"SLAM: {metrics['scans']} scans, {metrics['keyframes']} keyframes, {metrics['loop_closures']} "
+            f"loop closures in {metrics['wall_time_s']:.1f} s ({metrics['real_time_factor']:.1f}x real time)")
 
 
 def _yaml_config(path: Optional[Path], model):

@@ -43,12 +43,30 @@ def write_replay(out: str | Path, log: CarmenLog, result: ReplayResult,
     """Write trajectory.tum, graph.g2o, corrected.clf, metrics.json (and trajectory.png) to ``out``;
     returns the metrics."""
     out = Path(out)
-    slam = result.slam
-    write_tum(out / "trajectory.tum", result.stamps, result.trajectory)
-    slam.write_g2o(out / "graph.g2o")
+    write_trajectory_and_graph(out, result)
     write_corrected_log(out / "corrected.clf", log, result.trajectory)
-    metrics = {
-        "log": str(log.path),
+    metrics = {"log": str(log.path), **replay_metrics(log, result)}
+    if relations is not None:
+        error = relation_error(read_relations(relations), result.stamps, result.trajectory,
+                               [r.odometry for r in log], source=str(log.path))
+        metrics["relation_error"] = error.summary()
+    write_json_atomic(out / "metrics.json", metrics)
+    if figure:
+        trajectory_figure(out / "trajectory.png", result)
+    return metrics
+
+
+def write_trajectory_and_graph(out: str | Path, result: ReplayResult) -> None:
+    """``out``/trajectory.tum (every scan's pose) and ``out``/graph.g2o (the keyframe graph)."""
+    out = Path(out)
+    write_tum(out / "trajectory.tum", result.stamps, result.trajectory)
+    result.slam.write_g2o(out / "graph.g2o")
+
+
+def replay_metrics(log: CarmenLog, result: ReplayResult) -> dict:
+    """What the replay did: scans, keyframes, loop closures (verified, rejected), wall time (s)."""
+    slam = result.slam
+    return {
         "scans": len(log),
         "skipped_lines": len(log.skipped),
         "keyframes": len(slam.graph),
@@ -59,14 +77,6 @@ def write_replay(out: str | Path, log: CarmenLog, result: ReplayResult,
         "wall_time_s": result.wall_time,
         "real_time_factor": log.duration / result.wall_time if result.wall_time > 0 else None,
     }
-    if relations is not None:
-        error = relation_error(read_relations(relations), result.stamps, result.trajectory,
-                               [r.odometry for r in log], source=str(log.path))
-        metrics["relation_error"] = error.summary()
-    write_json_atomic(out / "metrics.json", metrics)
-    if figure:
-        trajectory_figure(out / "trajectory.png", result)
-    return metrics
 
 
 def trajectory_figure(path: str | Path, result: ReplayResult, max_points: int = 200000) -> None:
