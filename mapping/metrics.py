@@ -1,4 +1,4 @@
-"""Map quality metrics: ROC AUC, coverage and map entropy."""
+"""Map quality metrics: ROC AUC (and its two readings of a map), coverage and map entropy."""
 
 from __future__ import annotations
 
@@ -22,6 +22,17 @@ def roc_auc(labels: np.ndarray, scores: np.ndarray) -> float:
         return float("nan")
     ranks = rankdata(scores)
     return float((ranks[labels].sum() - n_pos * (n_pos + 1) / 2) / (n_pos * n_neg))
+
+
+def auc_readings(labels: np.ndarray, frame, prob: np.ndarray, xy: np.ndarray) -> dict[str, float]:
+    """ROC AUC of a map array ``prob`` (h, w) held in ``frame`` (a ``GridFrame``) at test
+    points ``xy`` (n, 2) with binary ``labels`` (n,), read two ways:
+
+    ``auc``: the continuous reading, bilinear between cell centres (the headline: the COM is a
+    continuous map); ``auc_cell``: the value of the cell holding each point.
+    """
+    return {"auc": roc_auc(labels, frame.sample(prob, xy, bilinear=True)),
+            "auc_cell": roc_auc(labels, frame.sample(prob, xy))}
 
 
 def coverage(prob: np.ndarray, free_mask: np.ndarray, threshold: float = 0.2) -> float:

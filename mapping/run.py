@@ -12,7 +12,7 @@ import numpy as np
 from mapping.com import ContinuousOccupancyMap
 from mapping.config import COMConfig
 from mapping.holdout import split
-from mapping.metrics import map_entropy, roc_auc
+from mapping.metrics import auc_readings, map_entropy
 from mapping.training import beam_samples
 from slam.scan import LaserScan
 
@@ -34,7 +34,8 @@ def map_keyframes(keyframes: Iterable[tuple[gtsam.Pose2, LaserScan]], config: CO
 
     With ``holdout`` > 0, that fraction of each scan's labelled points (``protocol="points"``)
     or beams (``"beams"``) is kept out of training and the AUC is measured on them; otherwise
-    the AUC is measured on all labelled points (resubstitution, optimistic).
+    the AUC is measured on all labelled points (resubstitution, optimistic). ``metrics["auc"]``
+    reads Λ continuously (bilinear), ``metrics["auc_cell"]`` at the cell holding each point.
     """
     com = ContinuousOccupancyMap(config)
     rng = np.random.default_rng(seed)
@@ -64,8 +65,7 @@ def map_keyframes(keyframes: Iterable[tuple[gtsam.Pose2, LaserScan]], config: CO
         "update_ms_p95": float(np.percentile(ms, 95)),
         "holdout": {"fraction": holdout, "protocol": protocol if holdout > 0 else "none (resubstitution)",
                     "points": int(len(occ))},
-        "auc": roc_auc(occ, com.sample(prob, xy)),
-        "auc_bilinear": roc_auc(occ, com.frame.sample(prob, xy, bilinear=True)),
+        **auc_readings(occ, com.frame, prob, xy),
         # over the bounding box of the observed cells (the arrays carry growth padding)
         "entropy_nats_0.2m": map_entropy(prob[com.observed_bounds()], com.resolution, 0.2),
         "map_cells": list(prob.shape),

@@ -146,6 +146,7 @@ def map_(
     m = run.metrics
     console.print(f"{m['keyframes']} keyframes in {m['wall_time_s']:.1f} s (update median "
                   f"{m['update_ms_median']:.1f} ms, p95 {m['update_ms_p95']:.1f} ms); AUC {m['auc']:.4f} "
+                  f"read continuously (bilinear), {m['auc_cell']:.4f} read per cell "
                   f"({m['holdout']['protocol']}); entropy {m['entropy_nats_0.2m']:.0f} nats")
     console.print(f"results in {out}/: com.npz, map.pgm, map.yaml, metrics.json, figures/com.png")
 

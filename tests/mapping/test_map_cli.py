@@ -9,7 +9,8 @@ import yaml
 from typer.testing import CliRunner
 
 from mapping.export import write_ros_map
-from mapping.metrics import coverage, map_entropy, roc_auc
+from mapping.grid import GridFrame
+from mapping.metrics import auc_readings, coverage, map_entropy, roc_auc
 from sim.cli import app
 from simworlds import corridor_world
 
@@ -74,16 +75,28 @@ def test_entropy_and_coverage_and_auc():
     assert roc_auc([0, 1], [0.5, 0.5]) == pytest.approx(0.5)
 
 
+def test_auc_reads_the_map_continuously_and_auc_cell_per_cell():
+    # two 1 m cells, Λ 0.2 and 0.8; an obstacle point and a free point in the first cell: the
+    # cell reading ties them (0.2, 0.2), the bilinear one ranks them (0.44 against 0.26; off the
+    # map reads 0.5)
+    frame = GridFrame(1.0)
+    frame.shape = (1, 2)
+    readings = auc_readings([True, False], frame, np.array([[0.2, 0.8]]), np.array([[0.9, 0.5], [0.3, 0.5]]))
+    assert readings == {"auc": 1.0, "auc_cell": 0.5}
+
+
 @pytest.mark.slow
 def test_intel_log_heldout_auc(shared_data):
-    """The whole Intel log with its poses, 20 % of each scan's labelled points held out."""
+    """The whole Intel log with its poses, 20 % of each scan's labelled points held out: the
+    issue's target, AUC >= 0.995 read continuously."""
     from mapping.run import map_keyframes
     from slam.carmen import CarmenLog
 
     log = CarmenLog(shared_data / "logs" / "intel-corrected.log.gz")
     run = map_keyframes(((r.pose, r.scan) for r in log), holdout=0.2, protocol="points")
     assert run.metrics["keyframes"] == 910
-    assert run.metrics["auc"] > 0.992                    # measured 0.9944 (bilinear 0.9956)
+    assert run.metrics["auc"] >= 0.995                   # read continuously; measured 0.9956
+    assert run.metrics["auc_cell"] > 0.992               # read per cell; measured 0.9944
     assert np.isfinite(run.com.prob()).all()
 
 
