@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 from typing import Optional
@@ -116,39 +117,62 @@ def map_(
     log: Path = typer.Argument(..., help="CARMEN log (.clf/.log, optionally .gz)"),
     poses: str = typer.Option("log", help="log: the log's FLASER poses; slam: the SLAM replay"),
     out: Path = typer.Option(Path("results/map"), help="output directory"),
+    config: Optional[Path] = typer.Option(None, help="SLAM configuration (YAML), with --poses slam"),
     max_range: float = typer.Option(10.0, help="mapping range, m: farther hits count as no return"),
     holdout: float = typer.Option(0.0, help="fraction of each scan's labelled points held out for the AUC"),
-    every: int = typer.Option(1, min=1, help="use every n-th scan as a keyframe"),
+    every: int = typer.Option(1, help="map every n-th scan (SLAM still uses them all)"),
 ):
-    """Build the continuous occupancy map of a log: com.npz, map.pgm/yaml, metrics.json, figure."""
+    """Build the continuous occupancy map of a log: com.npz, map.pgm/yaml, metrics.json, figure;
+    with --poses slam also the replay's trajectory.tum and graph.g2o."""
     from mapping.config import COMConfig, TrainingConfig
     from mapping.export import save_com, write_ros_map
     from mapping.figure import com_figure
     from mapping.run import map_keyframes
     from slam.atomic import write_json_atomic
     from slam.carmen import CarmenLog, LogFormatError
+    from slam.replay import replay as run_replay
+    from slam.replay import replay_metrics, write_trajectory_and_graph
 
-    if poses == "slam":
-        raise typer.BadParameter("--poses slam needs the SLAM replay, which has not landed yet; "
-                                 "use --poses log", param_hint="--poses")
-    if poses != "log":
+    if poses not in ("log", "slam"):
         raise typer.BadParameter(f"unknown pose source '{poses}' (have: log, slam)", param_hint="--poses")
+    if not 0 <= holdout < 1:
+        raise typer.BadParameter(f"{holdout} is not a fraction in [0, 1)", param_hint="--holdout")
+    if not (max_range > 0 and math.isfinite(max_range)):
+        raise typer.BadParameter(f"{max_range} m is not a positive finite range", param_hint="--max-range")
+    if every < 1:
+        raise typer.BadParameter(f"{every} is not a scan stride (1 or more)", param_hint="--every")
+    if config is not None and poses != "slam":
+        raise typer.BadParameter("a SLAM configuration needs --poses slam", param_hint="--config")
+    slam_config = _slam_config(config) if poses == "slam" else None
     try:
         records = CarmenLog(log)
     except (FileNotFoundError, LogFormatError) as err:
         raise typer.BadParameter(str(err), param_hint="LOG") from None
-    config = COMConfig(training=TrainingConfig(max_range=max_range))
-    run = map_keyframes(((r.pose, r.scan) for r in records[::every]), config, holdout=holdout)
+    metrics = {"log": str(log), "poses": poses}
+    if poses == "slam":
+        result = run_replay(records, slam_config, progress=True)
+        trajectory = result.trajectory
+        write_trajectory_and_graph(out, result)
+        metrics["slam"] = replay_metrics(records, result)
+        console.print(_replay_summary(metrics["slam"]))
+    else:
+        trajectory = [r.pose for r in records]
+    keyframes = ((pose, r.scan) for pose, r in zip(trajectory[::every], records[::every]))
+    run = map_keyframes(keyframes, COMConfig(training=TrainingConfig(max_range=max_range)), holdout=holdout)
+    metrics.update(run.metrics)
     save_com(out / "com.npz", run.com)
     write_ros_map(out / "map.pgm", run.com.prob(), run.com.origin, run.com.resolution)
-    write_json_atomic(out / "metrics.json", {"log": str(log), "poses": poses, **run.metrics})
+    write_json_atomic(out / "metrics.json", metrics)
     com_figure(out / "figures" / "com.png", run.com, run.poses_xy, run.hits_xy, title=log.name)
     m = run.metrics
-    console.print(f"{m['keyframes']} keyframes in {m['wall_time_s']:.1f} s (update median "
+    console.print(f"{m['keyframes']} scans mapped in {m['wall_time_s']:.1f} s (update median "
                   f"{m['update_ms_median']:.1f} ms, p95 {m['update_ms_p95']:.1f} ms); AUC {m['auc']:.4f} "
                   f"read continuously (bilinear), {m['auc_cell']:.4f} read per cell "
                   f"({m['holdout']['protocol']}); entropy {m['entropy_nats_0.2m']:.0f} nats")
-    console.print(f"results in {out}/: com.npz, map.pgm, map.yaml, metrics.json, figures/com.png")
+    products = "com.npz, map.pgm, map.yaml, metrics.json, figures/com.png"
+    if poses == "slam":
+        products += ", trajectory.tum, graph.g2o"
+    console.print(f"results in {out}/: {products}")
 
 
 @app.command()
