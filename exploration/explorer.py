@@ -76,12 +76,14 @@ class Explorer:
         """The robot arrived at the goal: the next ``plan`` chooses a new one."""
         self.goal = None
 
-    def give_up(self) -> None:
-        """The current goal cannot be reached: blacklist it and its frontier."""
+    def give_up(self, frontier: bool = True) -> None:
+        """The current goal cannot be reached: blacklist it, and with ``frontier`` the frontier
+        it serves too (the robot could not get to it; without, only the goal's neighbourhood)."""
         if self.goal is not None:
             self.blacklist.add(self.goal)
-            for p in self.target[:: max(1, len(self.target) // 8)]:
-                self.blacklist.add(p)
+            if frontier:
+                for p in self.target[:: max(1, len(self.target) // 8)]:
+                    self.blacklist.add(p)
         self.goal = None
 
     def plan(self, prob: np.ndarray, prob_occ: np.ndarray | None, origin, resolution: float,
@@ -136,8 +138,10 @@ class Explorer:
                 self.goal, self.target = best.goal, best.points
             else:
                 clusters = []
-                regions = [r for r in regions
-                           if not self.blacklist.covers(origin + resolution * r).all()]
+                # blacklisted cells leave their region; what is left must still be a frontier
+                regions = [kept for kept in (r[~self.blacklist.covers(origin + resolution * r)]
+                                             for r in regions)
+                           if len(kept) >= c.min_frontier_cells]
                 if not regions:
                     return Plan(None, done="frontiers_exhausted")
                 found = nearest_frontier(regions, near)
@@ -148,7 +152,7 @@ class Explorer:
                 self.target = origin + resolution * regions[k]
             if np.linalg.norm(self.goal - here) > c.min_goal_distance:
                 break
-            self.give_up()
+            self.give_up(frontier=False)
         self.goals_chosen += 1
         goal_cell = np.round((self.goal - origin) / resolution).astype(int)
         return Plan(self.goal, self._path(parent, goal_cell, origin, resolution, here),

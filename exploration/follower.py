@@ -47,17 +47,19 @@ class PathFollower:
         v = min(self.max_speed, distance) * math.cos(bearing)
         return v, w, False
 
+    @staticmethod
+    def remaining(pose: gtsam.Pose2, path: np.ndarray) -> float:
+        """Meters left to go: to the closest point of ``path`` (k, 2), then along it to its end.
+        Unlike the straight-line distance to the goal, it shrinks on a path that detours."""
+        here = np.array([pose.x(), pose.y()])
+        rest = _rest_of_path(here, np.asarray(path, dtype=float).reshape(-1, 2))
+        return float(np.linalg.norm(rest[0] - here) + np.linalg.norm(np.diff(rest, axis=0), axis=1).sum())
+
     def _carrot(self, here: np.ndarray, path: np.ndarray) -> np.ndarray:
         """The first point on the path, after the point closest to the robot, ``lookahead`` away."""
         if len(path) == 1:
             return path[0]
-        a, b = path[:-1], path[1:]
-        ab = b - a
-        length2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12)
-        t = np.clip(np.einsum("ij,ij->i", here - a, ab) / length2, 0.0, 1.0)
-        nearest = a + t[:, None] * ab
-        k = int(np.argmin(np.linalg.norm(nearest - here, axis=1)))
-        remaining = np.vstack([nearest[k], path[k + 1:]])
+        remaining = _rest_of_path(here, path)
         for p, q in zip(remaining[:-1], remaining[1:]):
             # the point on segment pq at distance lookahead from here, if any
             d = q - p
@@ -69,3 +71,16 @@ class PathFollower:
                 if 0.0 <= s <= 1.0:
                     return p + s * d
         return path[-1]
+
+
+def _rest_of_path(here: np.ndarray, path: np.ndarray) -> np.ndarray:
+    """The path from its point closest to ``here`` on: that point, then the vertices after it."""
+    if len(path) == 1:
+        return path
+    a, b = path[:-1], path[1:]
+    ab = b - a
+    length2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12)
+    t = np.clip(np.einsum("ij,ij->i", here - a, ab) / length2, 0.0, 1.0)
+    nearest = a + t[:, None] * ab
+    k = int(np.argmin(np.linalg.norm(nearest - here, axis=1)))
+    return np.vstack([nearest[k], path[k + 1:]])

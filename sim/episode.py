@@ -42,7 +42,7 @@ class EpisodeConfig(BaseModel):
     initial_spin: bool = Field(True, description="turn once on the spot before exploring (the "
                                "laser sees only 180 degrees)")
     stuck_steps: int = Field(150, ge=1, description="steps without getting 0.2 m closer to the goal "
-                             "before it is abandoned and blacklisted")
+                             "along the path before it is abandoned and blacklisted")
     snapshots: int = Field(4, ge=0, description="frontier-map snapshots kept for figures")
 
 
@@ -149,7 +149,7 @@ def run_episode(world: World, start: gtsam.Pose2, config: EpisodeConfig | None =
             break
         else:
             v, w, reached = follower.command(out.pose, plan.path)
-            distance = float(np.hypot(*(plan.goal - (out.pose.x(), out.pose.y()))))
+            distance = follower.remaining(out.pose, plan.path)
             if distance < best_distance - 0.2:
                 best_distance, since_progress = distance, 0
             else:

@@ -41,3 +41,14 @@ def test_stays_close_to_a_polyline():
         x, y = robot.pose.x(), robot.pose.y()
         worst = max(worst, min(abs(y - 1.0) if x <= 8.0 else np.inf, abs(x - 8.0) if y >= 1.0 else np.inf))
     assert reached and worst < 0.3
+
+
+def test_remaining_is_the_length_left_along_a_detour():
+    """A U-shaped path: the goal is 1 m away in a straight line but 5 m along the path; walking
+    the first leg brings the remaining length down while the straight-line distance grows."""
+    path = np.array([[0.0, 0.0], [0.0, 2.0], [1.0, 2.0], [1.0, 0.0]])
+    assert PathFollower.remaining(gtsam.Pose2(0.0, 0.0, 0.0), path) == pytest.approx(5.0)
+    assert PathFollower.remaining(gtsam.Pose2(0.0, 1.5, 0.0), path) == pytest.approx(3.5)
+    # off the path: the way back to it counts too
+    assert PathFollower.remaining(gtsam.Pose2(-0.3, 1.0, 0.0), path) == pytest.approx(4.3)
+    assert PathFollower.remaining(gtsam.Pose2(1.0, 0.0, 0.0), path) == pytest.approx(0.0)
