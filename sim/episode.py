@@ -148,6 +148,8 @@ def run_episode(world: World, start: gtsam.Pose2, config: EpisodeConfig | None =
             reason = plan.done
             break
         else:
+            if out.plan is not None and out.plan.new_goal:
+                best_distance, since_progress = math.inf, 0
             v, w, reached = follower.command(out.pose, plan.path)
             distance = follower.remaining(out.pose, plan.path)
             if distance < best_distance - 0.2:
@@ -160,7 +162,7 @@ def run_episode(world: World, start: gtsam.Pose2, config: EpisodeConfig | None =
                 else:
                     stack.explorer.give_up()
                     goals_abandoned += 1
-                best_distance, since_progress, replan = math.inf, 0, True
+                replan = True
                 continue
         odometry.update(robot.move(v, w, dt))
     bar.close()
