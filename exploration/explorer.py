@@ -45,7 +45,8 @@ class Plan:
 
     ``goal`` (2,) and ``path`` (k, 2) are in meters; ``goal`` is None when exploration is
     over, and ``done`` then says why: ``frontiers_exhausted`` (no significant frontier left)
-    or ``no_reachable_goal`` (frontiers remain, none reachable).
+    or ``no_reachable_goal`` (frontiers remain, none reachable). ``frontier`` is the map the
+    goal came from: the C-frontier map F (gp), or 1 on the grid's frontier cells (grid).
     """
 
     goal: np.ndarray | None
@@ -114,9 +115,10 @@ class Explorer:
             frontier = frontier_map(prob, prob_occ, resolution, c.beta, c.smoothing)
             points = _cells_above(frontier, c.goals.threshold)
         else:
-            frontier = None
             regions = grid_frontiers(prob, c.costmap, c.min_frontier_cells)
             points = np.vstack(regions) if regions else np.zeros((0, 2), int)
+            frontier = np.zeros(prob.shape)        # the grid's frontier cells, for figures
+            frontier[points[:, 1], points[:, 0]] = 1.0
 
         if self.goal is not None and self._goal_still_valid(points, origin, resolution, dist):
             goal_cell = np.round((self.goal - origin) / resolution).astype(int)
@@ -143,10 +145,10 @@ class Explorer:
                                              for r in regions)
                            if len(kept) >= c.min_frontier_cells]
                 if not regions:
-                    return Plan(None, done="frontiers_exhausted")
+                    return Plan(None, done="frontiers_exhausted", frontier=frontier)
                 found = nearest_frontier(regions, near)
                 if found is None:
-                    return Plan(None, done="no_reachable_goal")
+                    return Plan(None, done="no_reachable_goal", frontier=frontier)
                 k, cell = found
                 self.goal = origin + resolution * best_cell_near(dist, cell, reach)
                 self.target = origin + resolution * regions[k]

@@ -77,7 +77,8 @@ def map_figure(path: str | Path, prob: np.ndarray, extent, estimate, truth, loop
 
 
 def frontier_figure(path: str | Path, snapshots) -> None:
-    """C-frontier maps with their k-means clusters and the chosen goal (paper Fig. 3)."""
+    """Frontier maps with their k-means clusters and the chosen goal (paper Fig. 3); for the
+    grid baseline, its frontier cells."""
     n = len(snapshots)
     if n == 0:
         return
