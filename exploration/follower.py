@@ -6,42 +6,51 @@ import math
 
 import gtsam
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+
+class FollowerConfig(BaseModel):
+    """Pure-pursuit gains; the speed and turn-rate limits are the robot's."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    lookahead: float = Field(0.4, gt=0, description="distance to the carrot point on the path, m")
+    tolerance: float = Field(0.15, gt=0, description="the goal counts as reached within this, m")
+    turn_in_place_deg: float = Field(45.0, gt=0, le=180, description="turn on the spot when the "
+                                     "carrot is more than this off the heading, degrees")
+    heading_gain: float = Field(2.0, gt=0, description="turn rate per radian of heading error, 1/s")
 
 
 class PathFollower:
     """Pure pursuit on a polyline path: steer to a point ``lookahead`` meters ahead on the path.
 
-    The robot turns on the spot when the carrot is more than ``turn_in_place`` radians off its
+    The robot turns on the spot when the carrot is more than ``turn_in_place_deg`` off its
     heading, and slows down when turning hard, so it never cuts corners by much.
 
     Args:
         max_speed: m/s.
         max_turn_rate: rad/s.
-        lookahead: meters.
-        tolerance: meters; the goal counts as reached within it.
+        config: lookahead, goal tolerance, turn-in-place angle and heading gain.
     """
 
-    def __init__(self, max_speed: float, max_turn_rate: float, lookahead: float = 0.4,
-                 tolerance: float = 0.15, turn_in_place: float = math.radians(45)):
-        if not (max_speed > 0 and max_turn_rate > 0 and lookahead > 0 and tolerance > 0):
-            raise ValueError("speed, turn rate, lookahead and tolerance must all be positive")
+    def __init__(self, max_speed: float, max_turn_rate: float, config: FollowerConfig | None = None):
+        if not (max_speed > 0 and max_turn_rate > 0):
+            raise ValueError("speed and turn rate must be positive")
         self.max_speed = max_speed
         self.max_turn_rate = max_turn_rate
-        self.lookahead = lookahead
-        self.tolerance = tolerance
-        self.turn_in_place = turn_in_place
+        self.config = config or FollowerConfig()
 
     def command(self, pose: gtsam.Pose2, path: np.ndarray) -> tuple[float, float, bool]:
         """(v, w, reached) for the robot at ``pose`` following ``path`` (k, 2), in m/s, rad/s."""
         path = np.asarray(path, dtype=float).reshape(-1, 2)
         here = np.array([pose.x(), pose.y()])
-        if np.linalg.norm(path[-1] - here) < self.tolerance:
+        if np.linalg.norm(path[-1] - here) < self.config.tolerance:
             return 0.0, 0.0, True
         carrot = self._carrot(here, path)
         local = pose.transformTo(gtsam.Point2(*carrot))
         bearing = math.atan2(local[1], local[0])
-        w = float(np.clip(2.0 * bearing, -self.max_turn_rate, self.max_turn_rate))
-        if abs(bearing) > self.turn_in_place:
+        w = float(np.clip(self.config.heading_gain * bearing, -self.max_turn_rate, self.max_turn_rate))
+        if abs(bearing) > math.radians(self.config.turn_in_place_deg):
             return 0.0, w, False
         distance = float(np.linalg.norm(path[-1] - here))
         v = min(self.max_speed, distance) * math.cos(bearing)
@@ -64,7 +73,7 @@ class PathFollower:
             # the point on segment pq at distance lookahead from here, if any
             d = q - p
             f = p - here
-            qa, qb, qc = d @ d, 2 * f @ d, f @ f - self.lookahead**2
+            qa, qb, qc = d @ d, 2 * f @ d, f @ f - self.config.lookahead**2
             disc = qb * qb - 4 * qa * qc
             if qa > 0 and disc >= 0:
                 s = (-qb + math.sqrt(disc)) / (2 * qa)

@@ -17,7 +17,7 @@ class GoalConfig(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    threshold: float = Field(0.6, description="keep points with F above this: the desired sensitivity")
+    threshold: float = Field(0.6, ge=0, description="keep points with F above this: the desired sensitivity")
     min_points: int = Field(20, ge=1, description="fewer frontier points than this: no frontier "
                             "left (20 points of 0.1 m: the 2 m the grid baseline's 10 cells of "
                             "0.2 m span)")

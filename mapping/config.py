@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
-from pydantic import BaseModel, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 
-class KernelConfig(BaseModel):
+class _Config(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class KernelConfig(_Config):
     """Initial hyperparameters and their bounds for one GP (eqs. 5-6), meters.
 
     The obstacle GP uses the Matérn kernel (eq. 5) only and ignores ``se_length``; the free
@@ -25,18 +29,23 @@ class KernelConfig(BaseModel):
     noise_floor: float = Field(0.01, gt=0, description="lowest fitted noise variance (+1-only "
                                "targets drive the fitted noise to zero without a floor)")
 
-    @model_validator(mode="after")
-    def _check(self):
-        if self.nu not in (0.5, 1.5, 2.5):
-            raise ValueError(f"Matérn nu must be 0.5, 1.5 or 2.5, got {self.nu}")
-        for name in ("length_bounds", "se_bounds"):
-            lo, hi = getattr(self, name)
-            if not 0 < lo < hi:
-                raise ValueError(f"{name} must satisfy 0 < lo < hi, got {getattr(self, name)}")
-        return self
+    @field_validator("nu")
+    @classmethod
+    def _matern_nu(cls, nu: float) -> float:
+        if nu not in (0.5, 1.5, 2.5):
+            raise ValueError(f"Matérn nu must be 0.5, 1.5 or 2.5, got {nu}")
+        return nu
+
+    @field_validator("length_bounds", "se_bounds")
+    @classmethod
+    def _bounds(cls, bounds: tuple[float, float]) -> tuple[float, float]:
+        lo, hi = bounds
+        if not 0 < lo < hi:
+            raise ValueError(f"bounds must satisfy 0 < lo < hi, got {bounds}")
+        return bounds
 
 
-class TrainingConfig(BaseModel):
+class TrainingConfig(_Config):
     """How a keyframe becomes training points (Section IV-A)."""
 
     max_range: float = Field(10.0, gt=0, description="meters; hits beyond count as no return "
@@ -51,7 +60,7 @@ class TrainingConfig(BaseModel):
                               "of this size, m")
 
 
-class QueryConfig(BaseModel):
+class QueryConfig(_Config):
     """The local query set (Section IV-A) and the local GPs that answer it."""
 
     resolution: float = Field(0.1, gt=0, description="map cell size, m")
@@ -70,13 +79,13 @@ class QueryConfig(BaseModel):
                          "points join the training set")
 
 
-class SquashConfig(BaseModel):
+class SquashConfig(_Config):
     """Logistic squashing, eq. 7."""
 
     gamma: float = Field(10.0, gt=0, description="γ: weight w = γ·√λ")
 
 
-class DriftConfig(BaseModel):
+class DriftConfig(_Config):
     """Map drift check, Section VII: the local map of each keyframe against the global COM."""
 
     threshold: float = Field(0.2, gt=0, description="cumulated excess Jensen-Shannon divergence "
@@ -89,7 +98,7 @@ class DriftConfig(BaseModel):
     warmup: int = Field(10, ge=1, description="updates seen before anything is cumulated")
 
 
-class COMConfig(BaseModel):
+class COMConfig(_Config):
     """Everything the continuous occupancy map needs; the defaults work out of the box."""
 
     obstacle: KernelConfig = KernelConfig(matern_length=0.2, length_bounds=(0.05, 0.3))
@@ -102,4 +111,4 @@ class COMConfig(BaseModel):
     query: QueryConfig = QueryConfig()
     squash: SquashConfig = SquashConfig()
     drift: DriftConfig = DriftConfig()
-    seed: int = Field(0, description="seed of every random draw (subsampling for the fit)")
+    seed: int = Field(0, ge=0, description="seed of every random draw (subsampling for the fit)")

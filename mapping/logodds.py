@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import gtsam
 import numpy as np
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, ConfigDict, Field
 
 from mapping.grid import GridFrame
 from slam.scan import LaserScan
@@ -12,6 +12,8 @@ from slam.scan import LaserScan
 
 class LogOddsConfig(BaseModel):
     """Inverse sensor model of the log-odds grid (values in log-odds units)."""
+
+    model_config = ConfigDict(extra="forbid")
 
     resolution: float = Field(0.1, gt=0, description="cell size, m")
     l_occ: float = Field(2.0, gt=0, description="added to the cell holding a hit")

@@ -117,17 +117,19 @@ def map_(
     log: Path = typer.Argument(..., help="CARMEN log (.clf/.log, optionally .gz)"),
     poses: str = typer.Option("log", help="log: the log's FLASER poses; slam: the SLAM replay"),
     out: Path = typer.Option(Path("results/map"), help="output directory"),
-    config: Optional[Path] = typer.Option(None, help="SLAM configuration (YAML), with --poses slam"),
-    max_range: float = typer.Option(10.0, help="mapping range, m: farther hits count as no return"),
+    config: Optional[Path] = typer.Option(None, help="configuration (TOML): its [stack.com] and, with "
+                                          "--poses slam, [stack.slam] sections"),
+    max_range: Optional[float] = typer.Option(None, help="mapping range, m: farther hits count as no "
+                                              "return (default: stack.com.training.max_range, 10)"),
     holdout: float = typer.Option(0.0, help="fraction of each scan's labelled points held out for the AUC"),
     every: int = typer.Option(1, help="map every n-th scan (SLAM still uses them all)"),
 ):
     """Build the continuous occupancy map of a log: com.npz, map.pgm/yaml, metrics.json, figure;
-    with --poses slam also the replay's trajectory.tum and graph.g2o."""
-    from mapping.config import COMConfig, TrainingConfig
+    with --poses slam also the replay's trajectory.tum and graph.g2o; config.toml, the configuration used."""
     from mapping.export import save_com, write_ros_map
     from mapping.figure import com_figure
     from mapping.run import map_keyframes
+    from sim.config_file import CONFIG_NAME, write_config
     from slam.atomic import write_json_atomic
     from slam.carmen import CarmenLog, LogFormatError
     from slam.replay import replay as run_replay
@@ -137,20 +139,20 @@ def map_(
         raise typer.BadParameter(f"unknown pose source '{poses}' (have: log, slam)", param_hint="--poses")
     if not 0 <= holdout < 1:
         raise typer.BadParameter(f"{holdout} is not a fraction in [0, 1)", param_hint="--holdout")
-    if not (max_range > 0 and math.isfinite(max_range)):
+    if max_range is not None and not (max_range > 0 and math.isfinite(max_range)):
         raise typer.BadParameter(f"{max_range} m is not a positive finite range", param_hint="--max-range")
     if every < 1:
         raise typer.BadParameter(f"{every} is not a scan stride (1 or more)", param_hint="--every")
-    if config is not None and poses != "slam":
-        raise typer.BadParameter("a SLAM configuration needs --poses slam", param_hint="--config")
-    slam_config = _slam_config(config) if poses == "slam" else None
+    cfg = _episode_config(config)
+    if max_range is not None:
+        cfg.stack.com.training.max_range = max_range
     try:
         records = CarmenLog(log)
     except (FileNotFoundError, LogFormatError) as err:
         raise typer.BadParameter(str(err), param_hint="LOG") from None
     metrics = {"log": str(log), "poses": poses}
     if poses == "slam":
-        result = run_replay(records, slam_config, progress=True)
+        result = run_replay(records, cfg.stack.slam, progress=True)
         trajectory = result.trajectory
         write_trajectory_and_graph(out, result)
         metrics["slam"] = replay_metrics(records, result)
@@ -158,8 +160,9 @@ def map_(
     else:
         trajectory = [r.pose for r in records]
     keyframes = ((pose, r.scan) for pose, r in zip(trajectory[::every], records[::every]))
-    run = map_keyframes(keyframes, COMConfig(training=TrainingConfig(max_range=max_range)), holdout=holdout)
+    run = map_keyframes(keyframes, cfg.stack.com, holdout=holdout)
     metrics.update(run.metrics)
+    write_config(out / CONFIG_NAME, cfg)
     save_com(out / "com.npz", run.com)
     write_ros_map(out / "map.pgm", run.com.prob(), run.com.origin, run.com.resolution)
     write_json_atomic(out / "metrics.json", metrics)
@@ -169,7 +172,7 @@ def map_(
                   f"{m['update_ms_median']:.1f} ms, p95 {m['update_ms_p95']:.1f} ms); AUC {m['auc']:.4f} "
                   f"read continuously (bilinear), {m['auc_cell']:.4f} read per cell "
                   f"({m['holdout']['protocol']}); entropy {m['entropy_nats_0.2m']:.0f} nats")
-    products = "com.npz, map.pgm, map.yaml, metrics.json, figures/com.png"
+    products = "com.npz, map.pgm, map.yaml, metrics.json, config.toml, figures/com.png"
     if poses == "slam":
         products += ", trajectory.tum, graph.g2o"
     console.print(f"results in {out}/: {products}")
@@ -180,17 +183,19 @@ def replay(
     log: Path = typer.Argument(..., help="CARMEN log (.clf/.log, optionally .gz)"),
     relations: Optional[Path] = typer.Option(None, help="Kümmerle .relations file to score against"),
     out: Path = typer.Option(Path("results/replay"), help="output directory"),
-    config: Optional[Path] = typer.Option(None, help="SLAM configuration (YAML)"),
+    config: Optional[Path] = typer.Option(None, help="configuration (TOML): its [stack.slam] sections"),
     max_range: float = typer.Option(80.0, help="readings at or beyond this (m) are no return"),
     skip_malformed: bool = typer.Option(False, help="skip malformed lines (counted) instead of failing"),
 ):
-    """Run Pose SLAM over a CARMEN log; write trajectory.tum, graph.g2o, corrected.clf, metrics.json."""
+    """Run Pose SLAM over a CARMEN log; write trajectory.tum, graph.g2o, corrected.clf, metrics.json
+    and config.toml, the configuration used."""
+    from sim.config_file import CONFIG_NAME, write_config
     from slam.carmen import CarmenLog, LogFormatError
     from slam.evaluation import RelationsError
     from slam.replay import replay as run_replay
     from slam.replay import write_replay
 
-    cfg = _slam_config(config)
+    cfg = _episode_config(config)
     try:
         carmen = CarmenLog(log, max_range=max_range, skip_malformed=skip_malformed)
     except (LogFormatError, FileNotFoundError) as err:
@@ -199,7 +204,8 @@ def replay(
     if carmen.skipped:
         console.print(f"skipped {len(carmen.skipped)} malformed lines (first: line {carmen.skipped[0][0]}: "
                       f"{carmen.skipped[0][1]})")
-    result = run_replay(carmen, cfg, progress=True)
+    result = run_replay(carmen, cfg.stack.slam, progress=True)
+    write_config(out / CONFIG_NAME, cfg)
     try:
         metrics = write_replay(out, carmen, result, relations)
     except (RelationsError, FileNotFoundError) as err:
@@ -211,7 +217,8 @@ def replay(
             if isinstance(e, dict) and e["n"]:
                 console.print(f"relation error {name} (n={e['n']}): {e['trans_mean_m']:.4f} ± {e['trans_std_m']:.4f} m, "
                               f"{e['rot_mean_deg']:.3f} ± {e['rot_std_deg']:.3f} deg")
-    console.print(f"results in {out}/: trajectory.tum, graph.g2o, corrected.clf, metrics.json, trajectory.png")
+    console.print(f"results in {out}/: trajectory.tum, graph.g2o, corrected.clf, metrics.json, config.toml, "
+                  "trajectory.png")
 
 
 def _replay_summary(metrics: dict) -> str:
@@ -220,23 +227,9 @@ def _replay_summary(metrics: dict) -> str:
             f"loop closures in {metrics['wall_time_s']:.1f} s ({metrics['real_time_factor']:.1f}x real time)")
 
 
-def _yaml_config(path: Optional[Path], model):
-    """A pydantic configuration ``model`` from a YAML file, or its defaults without one."""
-    import yaml
-    from pydantic import ValidationError
-
-    if path is None:
-        return model()
-    try:
-        return model.model_validate(yaml.safe_load(path.read_text()) or {})
-    except (OSError, yaml.YAMLError, ValidationError) as err:
-        raise typer.BadParameter(f"{path}: {err}", param_hint="--config") from None
-
-
 def _slam_config(path: Optional[Path]):
-    from slam.config import SlamConfig
-
-    return _yaml_config(path, SlamConfig)
+    """The [stack.slam] section of the configuration file ``path`` (defaults without one)."""
+    return _episode_config(path).stack.slam
 
 
 @app.command()
@@ -276,9 +269,17 @@ def posegraph(
 
 
 def _episode_config(path: Optional[Path]):
+    """The whole configuration (EpisodeConfig) in ``path``, TOML or YAML by suffix; defaults
+    without one. A bad file is exit code 2 with the file, the dotted key and the problem."""
+    from sim.config_file import ConfigError, read_config
     from sim.episode import EpisodeConfig
 
-    return _yaml_config(path, EpisodeConfig)
+    if path is None:
+        return EpisodeConfig()
+    try:
+        return read_config(path)
+    except ConfigError as err:
+        raise typer.BadParameter(str(err), param_hint="--config") from None
 
 
 def _world_and_start(world: str, size, resolution, start, radius: float):
@@ -304,14 +305,17 @@ def explore(
     resolution: Optional[float] = typer.Option(None, help="bitmap resolution, m/pixel"),
     start: Optional[tuple[float, float, float]] = typer.Option(
         None, help="start X Y THETA (m, m, rad); default: the built-in start or a free corner"),
-    method: str = typer.Option("gp", help="gp (C-frontier on the COM) or grid (nearest frontier)"),
-    poses: str = typer.Option("slam", help="slam (Pose SLAM) or truth (perfect localisation)"),
+    method: Optional[str] = typer.Option(None, help="gp (C-frontier on the COM) or grid (nearest "
+                                         "frontier); default: stack.explorer.method, gp"),
+    poses: Optional[str] = typer.Option(None, help="slam (Pose SLAM) or truth (perfect localisation); "
+                                        "default: stack.poses, slam"),
     seed: int = typer.Option(0, help="seed of every random draw"),
-    max_steps: Optional[int] = typer.Option(None, help="scans before the run stops"),
-    config: Optional[Path] = typer.Option(None, help="run configuration (YAML, EpisodeConfig)"),
+    max_steps: Optional[int] = typer.Option(None, help="scans before the run stops; default: max_steps"),
+    config: Optional[Path] = typer.Option(None, help="configuration (TOML, see `gpexplore config dump`)"),
     out: Path = typer.Option(Path("results/explore"), help="output directory"),
 ):
-    """Explore a world with SLAM, the map and the frontier explorer in the loop; write results."""
+    """Explore a world with SLAM, the map and the frontier explorer in the loop; write results and
+    config.toml, the configuration used (--config config.toml with the same seed runs it again)."""
     from sim.episode import run_episode
     from sim.results import write_episode
 
@@ -324,23 +328,29 @@ def explore(
                   f"robot time ({m['wall_time_s']:.1f} s wall), coverage {100 * m['coverage']:.1f} %, "
                   f"AUC {m['auc']:.3f}, ATE {m['ate_rmse_m']:.3f} m, {m['loop_closures']} loop closures, "
                   f"{m['collisions']} collisions")
-    console.print(f"results in {out}/: metrics.json, trajectory.tum, ground_truth.tum, graph.g2o, "
-                  f"map.pgm, map.yaml{', com.npz' if method == 'gp' else ''}, figures/")
+    console.print(f"results in {out}/: metrics.json, config.toml, trajectory.tum, ground_truth.tum, "
+                  f"graph.g2o, map.pgm, map.yaml{', com.npz' if cfg.stack.explorer.method == 'gp' else ''}, "
+                  "figures/")
 
 
-def _config_for(cfg, method: str, poses: str, max_steps: Optional[int]):
+def _config_for(cfg, method: Optional[str], poses: Optional[str], max_steps: Optional[int]):
+    """``cfg`` with the options given on the command line (None: keep the configuration's)."""
     from pydantic import ValidationError
 
+    from sim.config_file import validation_message
+
+    data = cfg.model_dump()
+    if method is not None:
+        data["stack"]["explorer"]["method"] = method
+    if poses is not None:
+        data["stack"]["poses"] = poses
+    if max_steps is not None:
+        data["max_steps"] = max_steps
     try:
-        stack = cfg.stack.model_copy(update={
-            "poses": poses,
-            "explorer": cfg.stack.explorer.model_validate({**cfg.stack.explorer.model_dump(),
-                                                           "method": method})})
-        cfg = cfg.model_validate({**cfg.model_dump(), "stack": stack.model_dump(),
-                                  **({"max_steps": max_steps} if max_steps else {})})
+        return cfg.model_validate(data)
     except ValidationError as err:
-        raise typer.BadParameter(str(err), param_hint="--method/--poses/--max-steps") from None
-    return cfg
+        raise typer.BadParameter(validation_message(err, type(cfg)),
+                                 param_hint="--method/--poses/--max-steps") from None
 
 
 @app.command()
@@ -351,11 +361,12 @@ def compare(
     start: Optional[tuple[float, float, float]] = typer.Option(None, help="start X Y THETA"),
     seeds: int = typer.Option(10, min=1, help="runs per method (seeds 0..N-1)"),
     methods: str = typer.Option("gp,grid", help="comma-separated methods"),
-    poses: str = typer.Option("slam", help="slam or truth"),
-    config: Optional[Path] = typer.Option(None, help="run configuration (YAML, EpisodeConfig)"),
+    poses: Optional[str] = typer.Option(None, help="slam or truth; default: stack.poses, slam"),
+    config: Optional[Path] = typer.Option(None, help="configuration (TOML, see `gpexplore config dump`)"),
     out: Path = typer.Option(Path("results/compare"), help="output directory (runs resume from it)"),
 ):
-    """Run the methods over seeded runs and print the paper's Table I (mean ± standard error)."""
+    """Run the methods over seeded runs and print the paper's Table I (mean ± standard error); every
+    run's folder holds its config.toml."""
     from rich.table import Table
 
     from sim.campaign import run_campaign, table, termination_counts
@@ -387,6 +398,28 @@ def compare(
     console.print(view)
     console.print(f"ended: {termination_counts(results)}")
     console.print(f"runs and table.json in {out}/")
+
+
+config_app = typer.Typer(no_args_is_help=True, help="gpexplore's configuration file (TOML).")
+app.add_typer(config_app, name="config")
+
+
+@config_app.command("dump")
+def config_dump(
+    out: Optional[Path] = typer.Option(None, help="write the TOML here (default: standard output)"),
+    config: Optional[Path] = typer.Option(None, help="dump this configuration file (TOML or YAML) "
+                                          "completed with the defaults, instead of the defaults"),
+):
+    """Write the full configuration as TOML: every section and setting, each described; edit it
+    and pass it to explore, compare, replay or map with --config."""
+    from sim.config_file import dumps_config, write_config
+
+    cfg = _episode_config(config)
+    if out is None:
+        typer.echo(dumps_config(cfg), nl=False)
+    else:
+        write_config(out, cfg)
+        console.print(f"configuration: {out}")
 
 
 if __name__ == "__main__":

@@ -8,11 +8,11 @@ from dataclasses import dataclass, field
 
 import gtsam
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 from tqdm import tqdm
 
 from exploration.explorer import Plan
-from exploration.follower import PathFollower
+from exploration.follower import FollowerConfig, PathFollower
 from mapping.drift import binary_entropy
 from mapping.metrics import roc_auc
 from sim.lidar import Lidar, LidarConfig
@@ -21,6 +21,8 @@ from sim.robot import Robot, RobotConfig
 from sim.stack import Stack, StackConfig
 from sim.world import World
 
+# Evaluation constants: they define the metrics (comparable across runs and methods), so they
+# are not part of the run's configuration.
 #: Map entropy is measured on cells of this size (m), the paper's metric.
 ENTROPY_CELL = 0.2
 #: A cell of the reachable free space is covered when |Λ − 0.5| exceeds this (the COM's free
@@ -29,7 +31,12 @@ KNOWN = 0.1
 
 
 class EpisodeConfig(BaseModel):
-    """A run: robot, sensor, odometry noise, stack, and when to stop."""
+    """A run: robot, sensor, odometry noise, stack, path follower, and when to stop.
+
+    The root of gpexplore's configuration: ``gpexplore config dump`` writes it as TOML, and
+    ``--config`` reads it for every command (``replay`` and ``map`` use its ``stack.slam`` and
+    ``stack.com`` sections).
+    """
 
     model_config = ConfigDict(extra="forbid")
 
@@ -37,13 +44,23 @@ class EpisodeConfig(BaseModel):
     lidar: LidarConfig = LidarConfig()
     odometry: OdometryNoise = OdometryNoise()
     stack: StackConfig = StackConfig()
+    follower: FollowerConfig = FollowerConfig()
     max_steps: int = Field(6000, ge=1, description="scans before the run stops (step_budget)")
     metrics_every: int = Field(25, ge=1, description="steps between coverage/entropy samples")
     initial_spin: bool = Field(True, description="turn once on the spot before exploring (the "
                                "laser sees only 180 degrees)")
-    stuck_steps: int = Field(150, ge=1, description="steps without getting 0.2 m closer to the goal "
-                             "along the path before it is abandoned and blacklisted")
+    stuck_steps: int = Field(150, ge=1, description="steps without getting stuck_progress closer to "
+                             "the goal along the path before it is abandoned and blacklisted")
+    stuck_progress: float = Field(0.2, gt=0, description="progress along the path (m) that restarts "
+                                  "the stuck count")
     snapshots: int = Field(4, ge=0, description="frontier-map snapshots kept for figures")
+
+    @model_validator(mode="after")
+    def _planner_fits_the_robot(self):
+        if self.stack.explorer.robot_radius < self.robot.radius:
+            raise ValueError(f"stack.explorer.robot_radius {self.stack.explorer.robot_radius} m is "
+                             f"smaller than robot.radius {self.robot.radius} m: its paths would collide")
+        return self
 
 
 @dataclass
@@ -66,6 +83,7 @@ class EpisodeResult:
     curve: list[tuple[int, float, float, float]] = field(default_factory=list)  # step, m, coverage, H
     snapshots: list[Snapshot] = field(default_factory=list)
     stack: Stack | None = None
+    config: EpisodeConfig | None = None
 
 
 class _Evaluator:
@@ -110,10 +128,10 @@ def run_episode(world: World, start: gtsam.Pose2, config: EpisodeConfig | None =
     # the odometry frame is the world frame at the start: the robot knows where it starts
     odometry = Odometry(c.odometry, seed=odom_seed, start=start)
     stack = Stack(c.stack, seed=int(stack_seed.generate_state(1)[0]))
-    follower = PathFollower(c.robot.max_speed, c.robot.max_turn_rate)
+    follower = PathFollower(c.robot.max_speed, c.robot.max_turn_rate, c.follower)
     evaluator = _Evaluator(world, (start.x(), start.y()), c.robot.radius)
     dt = 1.0 / c.lidar.rate_hz
-    result = EpisodeResult(metrics={}, stack=stack)
+    result = EpisodeResult(metrics={}, stack=stack, config=c)
     spin = 2 * math.pi if c.initial_spin else 0.0
     replan, reason = False, "step_budget"
     best_distance, since_progress, goals_abandoned = math.inf, 0, 0
@@ -152,7 +170,7 @@ def run_episode(world: World, start: gtsam.Pose2, config: EpisodeConfig | None =
                 best_distance, since_progress = math.inf, 0
             v, w, reached = follower.command(out.pose, plan.path)
             distance = follower.remaining(out.pose, plan.path)
-            if distance < best_distance - 0.2:
+            if distance < best_distance - c.stuck_progress:
                 best_distance, since_progress = distance, 0
             else:
                 since_progress += 1

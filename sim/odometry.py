@@ -10,7 +10,9 @@ from pydantic import BaseModel, ConfigDict, Field
 
 
 class OdometryNoise(BaseModel):
-    """Noise growing with the motion: each relative motion is split into rot1, trans, rot2 and
+    """Wheel odometry noise, growing with the motion (Probabilistic Robotics 5.4).
+
+    Each relative motion is split into rot1, trans, rot2 and
 
     var(rot)   = alpha1·rot² + alpha2·trans²   (rad²)
     var(trans) = alpha3·trans² + alpha4·(rot1² + rot2²)   (m²)

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from mapping.export import save_com, write_ros_map
+from sim.config_file import CONFIG_NAME, write_config
 from sim.episode import EpisodeResult
 from sim.figures import entropy_figure, frontier_figure, map_figure, positions
 from slam.atomic import write_json_atomic
@@ -14,11 +15,13 @@ from slam.tum import write_tum
 
 
 def write_episode(out: str | Path, result: EpisodeResult) -> None:
-    """metrics.json, trajectory.tum, ground_truth.tum, graph.g2o, com.npz (GP method),
-    map.pgm + map.yaml and figures/ in ``out``; metrics.json is written last, so a folder
-    that has it holds a finished run."""
+    """metrics.json, config.toml (the run's configuration), trajectory.tum, ground_truth.tum,
+    graph.g2o, com.npz (GP method), map.pgm + map.yaml and figures/ in ``out``; metrics.json is
+    written last, so a folder that has it holds a finished run."""
     out = Path(out)
     stack = result.stack
+    if result.config is not None:
+        write_config(out / CONFIG_NAME, result.config)
     write_tum(out / "trajectory.tum", result.stamps, result.estimate)
     write_tum(out / "ground_truth.tum", result.stamps, result.truth)
     if stack.slam is not None:

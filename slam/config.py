@@ -15,7 +15,7 @@ class RegistrationConfig(_Config):
 
     voxel_sizes: list[float] = Field([1.0, 0.5, 0.2, 0.1], min_length=1,
                                      description="KISS-ICP voxel sizes (m), coarse to fine")
-    max_points_per_voxel: int = Field(20, ge=1)
+    max_points_per_voxel: int = Field(20, ge=1, description="KISS-ICP map points kept per voxel")
     icp_iterations: int = Field(100, ge=1, description="KISS-ICP iterations per voxel level")
     icp_convergence: float = Field(1e-4, gt=0, description="KISS-ICP stops below this step")
     refine_iterations: int = Field(3, ge=0, description="point-to-line Gauss-Newton iterations")
@@ -67,7 +67,7 @@ class KeyframeConfig(_Config):
 class LoopClosureConfig(_Config):
     """Candidate search, Pose SLAM gates, and verification of loop closures."""
 
-    enabled: bool = True
+    enabled: bool = Field(True, description="search for loop closures at all")
     search_radius: float = Field(8.0, gt=0, description="Euclidean pre-gate (m)")
     min_keyframe_gap: int = Field(30, ge=1, description="skip the most recent keyframes")
     match_radius: float = Field(3.0, gt=0, description="scans match if poses closer than this (m)")
@@ -79,11 +79,13 @@ class LoopClosureConfig(_Config):
                                        description="σ of a loop measurement for the gain test (m, m, rad)")
     max_candidates: int = Field(2, ge=1, description="verified per keyframe, most probable first")
     neighbour_keyframes: int = Field(5, ge=0, description="± keyframes around a candidate in its submap")
-    yaw_offsets_deg: list[float] = Field([0.0, 7.5, -7.5, 15.0, -15.0], min_length=1)
+    yaw_offsets_deg: list[float] = Field([0.0, 7.5, -7.5, 15.0, -15.0], min_length=1,
+                                          description="heading offsets (deg) of the coarse registration starts")
     coarse_levels: int = Field(2, ge=0, description="voxel levels run from every yaw offset")
     coarse_inlier_distance: float = Field(0.3, gt=0, description="m: scoring the coarse starts")
     coarse_accept: float = Field(0.85, gt=0, le=1, description="a coarse start scoring this stops the search")
-    min_inlier_fraction: float = Field(0.6, gt=0, le=1)
+    min_inlier_fraction: float = Field(0.6, gt=0, le=1, description="a registration with fewer "
+                                       "inliers is no loop closure")
     symmetry_translation: float = Field(0.1, gt=0, description="m: forward ∘ reverse registration gate")
     symmetry_rotation_deg: float = Field(1.0, gt=0, description="deg: forward ∘ reverse registration gate")
     mahalanobis_gate: float = Field(16.27, gt=0, description="χ²(3) gate (0.999) against the graph's prediction:"
@@ -100,12 +102,18 @@ class LoopClosureConfig(_Config):
 
 
 class BackEndConfig(_Config):
-    relinearize_threshold: float = Field(0.01, gt=0)
-    relinearize_skip: int = Field(1, ge=1)
+    """The iSAM2 pose graph."""
+
+    relinearize_threshold: float = Field(0.01, gt=0, description="iSAM2 relinearises "
+                                         "a variable whose update exceeds this")
+    relinearize_skip: int = Field(1, ge=1, description="iSAM2 checks relinearisation "
+                                  "every this many updates")
     qr: bool = Field(False, description="QR instead of Cholesky (ill-conditioned graphs)")
 
 
 class SlamConfig(_Config):
+    """Pose SLAM: front end, keyframes, loop closures, back end."""
+
     front_end: FrontEndConfig = FrontEndConfig()
     keyframes: KeyframeConfig = KeyframeConfig()
     loop_closure: LoopClosureConfig = LoopClosureConfig()

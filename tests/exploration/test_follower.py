@@ -23,7 +23,7 @@ def test_reaches_goals_within_limits(goal):
             break
         robot.move(v, w, 0.1)
     assert reached
-    assert np.hypot(robot.pose.x() - goal[0], robot.pose.y() - goal[1]) < follower.tolerance
+    assert np.hypot(robot.pose.x() - goal[0], robot.pose.y() - goal[1]) < follower.config.tolerance
     assert robot.collisions == 0
 
 
