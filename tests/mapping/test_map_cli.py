@@ -57,6 +57,26 @@ def test_map_command_writes_com_ros_map_metrics_and_figure(tmp_path):
     assert (out / "figures" / "com.png").stat().st_size > 10_000
 
 
+def test_map_command_reads_the_com_section_and_saves_its_configuration(tmp_path):
+    from sim.config_file import read_config
+    from sim.lidar import Lidar, LidarConfig
+
+    world = corridor_world()
+    poses = [gtsam.Pose2(x, 2.0, 0.0) for x in (2.0, 3.0, 4.0)]
+    lidar = Lidar(LidarConfig(beams=90), seed=0)
+    log = tmp_path / "corridor.clf"
+    write_flaser_log(log, poses, [lidar.scan(world, p) for p in poses])
+    config = tmp_path / "cfg.toml"
+    config.write_text("[stack.com.query]\nresolution = 0.2\n[stack.com.training]\nmax_range = 6.0\n")
+    out = tmp_path / "out"
+    result = CliRunner().invoke(app, ["map", str(log), "--out", str(out), "--config", str(config),
+                                      "--max-range", "8"])
+    assert result.exit_code == 0, result.output
+    assert yaml.safe_load((out / "map.yaml").read_text())["resolution"] == pytest.approx(0.2)
+    saved = read_config(out / "config.toml").stack.com
+    assert saved.query.resolution == 0.2 and saved.training.max_range == 8.0     # the option wins
+
+
 def auc_against_truth(com, world):
     """ROC AUC of a saved map's Λ against the true occupancy, over the cells it has observed."""
     prob = com["prob"]
@@ -112,7 +132,7 @@ def test_map_with_slam_poses_undoes_the_odometry_drift(tmp_path):
     ("--max-range", "inf", "--max-range: inf m is not a positive finite range"),
     ("--every", "0", "--every: 0 is not a scan stride (1 or more)"),
     ("--poses", "gps", "--poses: unknown pose source 'gps' (have: log, slam)"),
-    ("--config", "slam.yaml", "--config: a SLAM configuration needs --poses slam"),
+    ("--config", "missing.toml", "--config: missing.toml: cannot read"),
 ])
 def test_map_command_rejects_bad_options_by_name_and_value(tmp_path, option, value, message):
     log = tmp_path / "x.clf"

@@ -57,6 +57,7 @@ def test_replay_small_log_with_foreign_relations(tmp_path, shared_data):
 def test_replay_config_file_is_validated(tmp_path, shared_data):
     import yaml
 
+    from sim.config_file import read_config
     from slam.config import SlamConfig
 
     lines = (shared_data / "logs" / "mit-csail.clf").read_text().splitlines()[:60]
@@ -64,12 +65,13 @@ def test_replay_config_file_is_validated(tmp_path, shared_data):
     log.write_text("\n".join(lines) + "\n")
     config = SlamConfig()
     config.loop_closure.enabled = False
-    good = tmp_path / "good.yaml"
-    good.write_text(yaml.safe_dump(config.model_dump()))
-    assert SlamConfig.model_validate(yaml.safe_load(good.read_text())) == config   # dump → reload
+    good = tmp_path / "good.yaml"                     # YAML is read too, by its suffix
+    good.write_text(yaml.safe_dump({"stack": {"slam": config.model_dump()}}))
     result = runner.invoke(app, ["replay", str(log), "--out", str(tmp_path / "o"), "--config", str(good)])
     assert result.exit_code == 0, result.output
+    assert read_config(tmp_path / "o" / "config.toml").stack.slam == config     # the run's configuration
     bad = tmp_path / "bad.yaml"
-    bad.write_text("loop_closure:\n  serch_radius: 3\n")
+    bad.write_text("stack:\n  slam:\n    loop_closure:\n      serch_radius: 3\n")
     result = runner.invoke(app, ["replay", str(log), "--config", str(bad)])
-    assert result.exit_code == 2 and "serch_radius" in result.output
+    assert result.exit_code == 2
+    assert "stack.slam.loop_closure.serch_radius: unknown setting" in " ".join(result.output.split())
