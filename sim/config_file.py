@@ -77,9 +77,11 @@ def write_config(path: str | Path, config: BaseModel) -> None:
     write_text_atomic(path, dumps_config(config))
 
 
-def validation_message(err: ValidationError, model: type[BaseModel], source: str | Path | None = None) -> str:
-    """One line per problem: ``source: dotted.key: what is wrong``; an unknown key comes with
-    the closest known ones of its section."""
+def validation_message(err: ValidationError, model: type[BaseModel],
+                       source: str | Path | None = None) -> str:
+    """One line per problem of ``model``'s validation: ``source: dotted.key: what is wrong``; an
+    unknown key comes with the closest known ones of its section."""
+    prefix = f"{source}: " if source is not None else ""
     lines = []
     for e in err.errors():
         msg = e["msg"]
@@ -87,7 +89,7 @@ def validation_message(err: ValidationError, model: type[BaseModel], source: str
             known = _section(model, e["loc"][:-1]).model_fields
             close = difflib.get_close_matches(str(e["loc"][-1]), known, n=2)
             msg = "unknown setting" + (f" (did you mean {' or '.join(close)}?)" if close else "")
-        lines.append(f"{source}: " * (source is not None) + f"{_key(e['loc'])}{msg}")
+        lines.append(f"{prefix}{_key(e['loc'])}{msg}")
     return "\n".join(lines)
 
 
@@ -122,4 +124,5 @@ def _describe(text: str, root: type[BaseModel]) -> str:
 
 
 def _comment(text: str) -> list[str]:
+    """``text`` as TOML comment lines of at most 96 characters."""
     return textwrap.wrap(" ".join(text.split()), 96, initial_indent="# ", subsequent_indent="# ")
