@@ -183,7 +183,7 @@ def replay(
     log: Path = typer.Argument(..., help="CARMEN log (.clf/.log, optionally .gz)"),
     relations: Optional[Path] = typer.Option(None, help="Kümmerle .relations file to score against"),
     out: Path = typer.Option(Path("results/replay"), help="output directory"),
-    config: Optional[Path] = typer.Option(None, help="configuration (TOML): its [stack.slam] sections"),
+    config: Optional[Path] = typer.Option(None, help="configuration (TOML): its [stack.slam] section"),
     max_range: float = typer.Option(80.0, help="readings at or beyond this (m) are no return"),
     skip_malformed: bool = typer.Option(False, help="skip malformed lines (counted) instead of failing"),
 ):
