@@ -118,19 +118,19 @@ class RosBag:
         """The topic of ``msgtype`` to read: ``wanted``, the only one, or the preferred name."""
         topics = {name: info.msgtype for name, info in reader.topics.items()}
         candidates = sorted(name for name, t in topics.items() if t == msgtype)
-        kind = msgtype.replace("/msg/", "/")
+        kind = _short(msgtype)
         if wanted is not None:
             if wanted not in topics:
                 raise BagError(f"{self.path}: no topic '{wanted}' ({option}); {kind} topics: "
                                f"{', '.join(candidates) or 'none'}")
             if topics[wanted] != msgtype:
-                raise BagError(f"{self.path}: topic '{wanted}' ({option}) holds {topics[wanted]}, "
+                raise BagError(f"{self.path}: topic '{wanted}' ({option}) holds {_short(topics[wanted])}, "
                                f"not {kind}")
             return wanted
         if len(candidates) == 1:
             return candidates[0]
         if not candidates:
-            listing = ", ".join(f"{name} ({t})" for name, t in sorted(topics.items())) or "none"
+            listing = ", ".join(f"{name} ({_short(t)})" for name, t in sorted(topics.items())) or "none"
             raise BagError(f"{self.path}: no {kind} topic (topics: {listing})")
         if PREFERRED_TOPIC[msgtype] in candidates:
             return PREFERRED_TOPIC[msgtype]
@@ -158,14 +158,15 @@ class RosBag:
                        for k, m in enumerate(self._messages(reader, self.scan_topic)))
         if not scans:
             raise BagError(f"{self.path}: no messages on the scan topic '{self.scan_topic}'")
+        at = np.array([stamp for stamp, _, _ in scans])
+        xyt = np.column_stack([np.interp(at, stamps, poses[:, i]) for i in range(3)])
         records = []
-        for index, (stamp, _, message) in enumerate(scans, start=1):
+        for index, ((stamp, _, message), (x, y, yaw)) in enumerate(zip(scans, xyt), start=1):
             if not stamps[0] <= stamp <= stamps[-1]:
                 side = "before the first" if stamp < stamps[0] else "after the last"
                 self.skipped.append((index, f"scan at {stamp:.3f} s is {side} odometry message "
                                             f"({stamps[0]:.3f} to {stamps[-1]:.3f} s)"))
                 continue
-            x, y, yaw = (np.interp(stamp, stamps, poses[:, i]) for i in range(3))
             pose = gtsam.Pose2(x, y, yaw)
             records.append(BagRecord(index, self._scan(message, stamp), pose, pose))
         if not records:
@@ -182,6 +183,11 @@ class RosBag:
         with np.errstate(invalid="ignore"):
             ranges[np.isneginf(ranges) | (ranges < message.range_min)] = np.nan
         return LaserScan(ranges, angles, max_range, timestamp=stamp)
+
+
+def _short(msgtype: str) -> str:
+    """``sensor_msgs/LaserScan`` for ``sensor_msgs/msg/LaserScan`` (rosbags' ROS 2 style names)."""
+    return msgtype.replace("/msg/", "/")
 
 
 def _seconds(stamp) -> float:

@@ -161,8 +161,8 @@ def one_line(output):
 
 
 def test_replay_and_map_commands_on_a_bag(tour, bags, tmp_path):
-    """SLAM over the MCAP bag ends near the truth: ATE well under the odometry's (measured 0.01 m
-    against 0.3 m); the map command maps it with the bag's odometry."""
+    """SLAM over the MCAP bag stays near the truth: ATE 0.010 m against the odometry's 0.47 m
+    (measured); the map command maps the ROS 1 bag with its odometry."""
     out = tmp_path / "replay"
     result = CliRunner().invoke(app, ["replay", str(bags["mcap"]), "--out", str(out)])
     assert result.exit_code == 0, result.output
@@ -172,7 +172,7 @@ def test_replay_and_map_commands_on_a_bag(tour, bags, tmp_path):
     truth = tour.truth[1:]
     assert len(trajectory) == len(truth) and stamps[0] == pytest.approx(tour.stamps[1])
     slam_ate, odometry_ate = ate(trajectory, truth), ate(tour.odometry[1:], truth)
-    assert odometry_ate > 0.1 and slam_ate < odometry_ate / 5, (slam_ate, odometry_ate)
+    assert odometry_ate > 0.3 and slam_ate < 0.05, (slam_ate, odometry_ate)
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["scans"] == len(truth) and metrics["skipped_scans"] == 1
     assert (metrics["scan_topic"], metrics["odom_topic"]) == ("/scan", "/odom")
@@ -213,12 +213,12 @@ def test_topics_are_detected_or_chosen_by_name(tmp_path, storage):
 
 @pytest.mark.parametrize("topics, options, message", [
     ({"/odom": small_odometry()}, {},
-     "no sensor_msgs/LaserScan topic (topics: /odom (nav_msgs/msg/Odometry))"),
-    ({"/scan": small_scans()}, {}, "no nav_msgs/Odometry topic (topics: /scan (sensor_msgs/msg/LaserScan))"),
+     "no sensor_msgs/LaserScan topic (topics: /odom (nav_msgs/Odometry))"),
+    ({"/scan": small_scans()}, {}, "no nav_msgs/Odometry topic (topics: /scan (sensor_msgs/LaserScan))"),
     ({"/scan": small_scans(), "/odom": small_odometry()}, {"scan_topic": "/laser"},
      "no topic '/laser' (--scan-topic); sensor_msgs/LaserScan topics: /scan"),
     ({"/scan": small_scans(), "/odom": small_odometry()}, {"odom_topic": "/scan"},
-     "topic '/scan' (--odom-topic) holds sensor_msgs/msg/LaserScan, not nav_msgs/Odometry"),
+     "topic '/scan' (--odom-topic) holds sensor_msgs/LaserScan, not nav_msgs/Odometry"),
     ({"/scan": small_scans(start=5.0), "/odom": small_odometry()}, {},
      "none of the 3 scans on '/scan' lies within the odometry's time span (0.000 to 0.200 s)"),
 ])
@@ -252,7 +252,7 @@ def test_cli_errors_on_bad_bags_exit_2_naming_the_file(tmp_path, monkeypatch):
     result = runner.invoke(app, ["replay", str(path), "--scan-topic", "/laser", "--out", str(tmp_path / "o")])
     assert result.exit_code == 2 and f"{path}: no topic '/laser' (--scan-topic)" in one_line(result.output)
     result = runner.invoke(app, ["map", str(path), "--odom-topic", "/scan", "--out", str(tmp_path / "o")])
-    assert result.exit_code == 2 and "holds sensor_msgs/msg/LaserScan, not nav_msgs/Odometry" in \
+    assert result.exit_code == 2 and "holds sensor_msgs/LaserScan, not nav_msgs/Odometry" in \
         one_line(result.output)
     garbage = tmp_path / "garbage.bag"
     garbage.write_bytes(b"not a bag at all\n" * 10)
