@@ -15,6 +15,10 @@ from rich.console import Console
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Autonomous exploration on continuous Gaussian-process frontier maps.")
 console = Console()
+LOG_HELP = ("CARMEN log (.clf/.log, optionally .gz) or ROS bag (ROS 1 .bag; ROS 2 bag directory, "
+            ".db3 or .mcap)")
+SCAN_TOPIC_HELP = "ROS bags: the sensor_msgs/LaserScan topic (default: the only one, or /scan)"
+ODOM_TOPIC_HELP = "ROS bags: the nav_msgs/Odometry topic (default: the only one, or /odom)"
 
 
 def _load(world: str, size, resolution):
@@ -114,8 +118,8 @@ def demo(
 
 @app.command("map")
 def map_(
-    log: Path = typer.Argument(..., help="CARMEN log (.clf/.log, optionally .gz)"),
-    poses: str = typer.Option("log", help="log: the log's FLASER poses; slam: the SLAM replay"),
+    log: Path = typer.Argument(..., help=LOG_HELP),
+    poses: str = typer.Option("log", help="log: the log's poses (a bag's odometry); slam: the SLAM replay"),
     out: Path = typer.Option(Path("results/map"), help="output directory"),
     config: Optional[Path] = typer.Option(None, help="configuration (TOML): its [stack.com] and, with "
                                           "--poses slam, [stack.slam] sections"),
@@ -123,6 +127,8 @@ def map_(
                                               "return (default: stack.com.training.max_range, 10)"),
     holdout: float = typer.Option(0.0, help="fraction of each scan's labelled points held out for the AUC"),
     every: int = typer.Option(1, help="map every n-th scan (SLAM still uses them all)"),
+    scan_topic: Optional[str] = typer.Option(None, help=SCAN_TOPIC_HELP),
+    odom_topic: Optional[str] = typer.Option(None, help=ODOM_TOPIC_HELP),
 ):
     """Build the continuous occupancy map of a log: com.npz, map.pgm/yaml, metrics.json, figure;
     with --poses slam also the replay's trajectory.tum and graph.g2o; config.toml, the configuration used."""
@@ -131,7 +137,6 @@ def map_(
     from mapping.run import map_keyframes
     from sim.config_file import CONFIG_NAME, write_config
     from slam.atomic import write_json_atomic
-    from slam.carmen import CarmenLog, LogFormatError
     from slam.replay import replay as run_replay
     from slam.replay import replay_metrics, write_trajectory_and_graph
 
@@ -146,10 +151,7 @@ def map_(
     cfg = _episode_config(config)
     if max_range is not None:
         cfg.stack.com.training.max_range = max_range
-    try:
-        records = CarmenLog(log)
-    except (FileNotFoundError, LogFormatError) as err:
-        raise typer.BadParameter(str(err), param_hint="LOG") from None
+    records = _open_log(log, scan_topic=scan_topic, odom_topic=odom_topic)
     metrics = {"log": str(log), "poses": poses}
     if poses == "slam":
         result = run_replay(records, cfg.stack.slam, progress=True)
@@ -180,34 +182,29 @@ def map_(
 
 @app.command()
 def replay(
-    log: Path = typer.Argument(..., help="CARMEN log (.clf/.log, optionally .gz)"),
+    log: Path = typer.Argument(..., help=LOG_HELP),
     relations: Optional[Path] = typer.Option(None, help="Kümmerle .relations file to score against"),
     out: Path = typer.Option(Path("results/replay"), help="output directory"),
     config: Optional[Path] = typer.Option(None, help="configuration (TOML): its [stack.slam] section"),
     max_range: float = typer.Option(80.0, help="readings at or beyond this (m) are no return"),
     skip_malformed: bool = typer.Option(False, help="skip malformed lines (counted) instead of failing"),
+    scan_topic: Optional[str] = typer.Option(None, help=SCAN_TOPIC_HELP),
+    odom_topic: Optional[str] = typer.Option(None, help=ODOM_TOPIC_HELP),
 ):
-    """Run Pose SLAM over a CARMEN log; write trajectory.tum, graph.g2o, corrected.clf, metrics.json
-    and config.toml, the configuration used."""
+    """Run Pose SLAM over a CARMEN log or ROS bag; write trajectory.tum, graph.g2o, metrics.json,
+    config.toml (the configuration used) and, for a CARMEN log, corrected.clf."""
     from sim.config_file import CONFIG_NAME, write_config
-    from slam.carmen import CarmenLog, LogFormatError
+    from slam.carmen import CarmenLog
     from slam.evaluation import RelationsError
     from slam.replay import replay as run_replay
     from slam.replay import write_replay
 
     cfg = _episode_config(config)
-    try:
-        carmen = CarmenLog(log, max_range=max_range, skip_malformed=skip_malformed)
-    except (LogFormatError, FileNotFoundError) as err:
-        console.print(f"[red]error:[/red] {err}")
-        raise typer.Exit(2) from None
-    if carmen.skipped:
-        console.print(f"skipped {len(carmen.skipped)} malformed lines (first: line {carmen.skipped[0][0]}: "
-                      f"{carmen.skipped[0][1]})")
-    result = run_replay(carmen, cfg.stack.slam, progress=True)
+    records = _open_log(log, max_range, skip_malformed, scan_topic, odom_topic)
+    result = run_replay(records, cfg.stack.slam, progress=True)
     write_config(out / CONFIG_NAME, cfg)
     try:
-        metrics = write_replay(out, carmen, result, relations)
+        metrics = write_replay(out, records, result, relations)
     except (RelationsError, FileNotFoundError) as err:
         console.print(f"[red]error:[/red] {err}")
         raise typer.Exit(2) from None
@@ -217,8 +214,35 @@ def replay(
             if isinstance(e, dict) and e["n"]:
                 console.print(f"relation error {name} (n={e['n']}): {e['trans_mean_m']:.4f} ± {e['trans_std_m']:.4f} m, "
                               f"{e['rot_mean_deg']:.3f} ± {e['rot_std_deg']:.3f} deg")
-    console.print(f"results in {out}/: trajectory.tum, graph.g2o, corrected.clf, metrics.json, config.toml, "
-                  "trajectory.png")
+    corrected = "corrected.clf, " if isinstance(records, CarmenLog) else ""
+    console.print(f"results in {out}/: trajectory.tum, graph.g2o, {corrected}metrics.json, config.toml, trajectory.png")
+
+
+def _open_log(path: Path, max_range: float = 80.0, skip_malformed: bool = False,
+              scan_topic: Optional[str] = None, odom_topic: Optional[str] = None):
+    """The laser records of a CARMEN log or, by its path, a ROS bag; a bad one exits 2 with the reason."""
+    from rich.markup import escape
+
+    from slam.carmen import CarmenLog, LogFormatError
+    from slam.rosbag import BagError, RosBag, is_bag
+
+    bag = is_bag(path)
+    if not bag and (scan_topic or odom_topic):
+        raise typer.BadParameter(f"{path} is a CARMEN log, topics are for ROS bags",
+                                 param_hint="--scan-topic" if scan_topic else "--odom-topic")
+    try:
+        if bag:
+            records = RosBag(path, scan_topic, odom_topic, max_range=max_range)
+        else:
+            records = CarmenLog(path, max_range=max_range, skip_malformed=skip_malformed)
+    except (LogFormatError, BagError, FileNotFoundError) as err:
+        console.print(f"[red]error:[/red] {escape(str(err))}")
+        raise typer.Exit(2) from None
+    if records.skipped:
+        what, unit = ("malformed lines", "line") if isinstance(records, CarmenLog) else ("scans", "scan")
+        number, reason = records.skipped[0]
+        console.print(escape(f"skipped {len(records.skipped)} {what} (first: {unit} {number}: {reason})"))
+    return records
 
 
 def _replay_summary(metrics: dict) -> str:

@@ -1,4 +1,4 @@
-"""Replay a CARMEN log through Pose SLAM and write its results in standard formats."""
+"""Replay a CARMEN log or ROS bag through Pose SLAM and write its results in standard formats."""
 
 from __future__ import annotations
 
@@ -15,7 +15,11 @@ from slam.carmen import CarmenLog, write_corrected_log
 from slam.config import SlamConfig
 from slam.evaluation import read_relations, relation_error
 from slam.pose_slam import PoseSlam
+from slam.rosbag import RosBag
 from slam.tum import write_tum
+
+#: The laser records of a log: ``len``, indexing, iteration; each with ``.scan``, ``.pose``, ``.odometry``.
+ScanLog = CarmenLog | RosBag
 
 
 @dataclass
@@ -28,7 +32,7 @@ class ReplayResult:
     wall_time: float
 
 
-def replay(log: CarmenLog, config: SlamConfig | None = None, progress: bool = False) -> ReplayResult:
+def replay(log: ScanLog, config: SlamConfig | None = None, progress: bool = False) -> ReplayResult:
     """Run Pose SLAM over every laser record, with the log's raw odometry as the prediction."""
     slam = PoseSlam(config)
     tic = time.perf_counter()
@@ -38,13 +42,15 @@ def replay(log: CarmenLog, config: SlamConfig | None = None, progress: bool = Fa
     return ReplayResult(slam, np.array(slam.scan_stamps), slam.trajectory(), wall)
 
 
-def write_replay(out: str | Path, log: CarmenLog, result: ReplayResult,
+def write_replay(out: str | Path, log: ScanLog, result: ReplayResult,
                  relations: str | Path | None = None, figure: bool = True) -> dict:
-    """Write trajectory.tum, graph.g2o, corrected.clf, metrics.json (and trajectory.png) to ``out``;
+    """Write trajectory.tum, graph.g2o, metrics.json (and trajectory.png) to ``out``, and for a
+    CARMEN log corrected.clf (a bag has no CARMEN lines to correct: trajectory.tum holds its poses);
     returns the metrics."""
     out = Path(out)
     write_trajectory_and_graph(out, result)
-    write_corrected_log(out / "corrected.clf", log, result.trajectory)
+    if isinstance(log, CarmenLog):
+        write_corrected_log(out / "corrected.clf", log, result.trajectory)
     metrics = {"log": str(log.path), **replay_metrics(log, result)}
     if relations is not None:
         error = relation_error(read_relations(relations), result.stamps, result.trajectory,
@@ -63,12 +69,16 @@ def write_trajectory_and_graph(out: str | Path, result: ReplayResult) -> None:
     result.slam.write_g2o(out / "graph.g2o")
 
 
-def replay_metrics(log: CarmenLog, result: ReplayResult) -> dict:
+def replay_metrics(log: ScanLog, result: ReplayResult) -> dict:
     """What the replay did: scans, keyframes, loop closures (verified, rejected), wall time (s)."""
     slam = result.slam
+    if isinstance(log, CarmenLog):
+        source = {"skipped_lines": len(log.skipped)}
+    else:
+        source = {"scan_topic": log.scan_topic, "odom_topic": log.odom_topic, "skipped_scans": len(log.skipped)}
     return {
         "scans": len(log),
-        "skipped_lines": len(log.skipped),
+        **source,
         "keyframes": len(slam.graph),
         "loop_closures": len(slam.loops),
         "loop_candidates_verified": slam.detector.tried,
