@@ -141,7 +141,8 @@ def write_animation(folder: str | Path, result, fps: int = FPS) -> list[Path]:
     xmin, xmax, ymin, ymax = world.extent
     ax.set(xlim=(xmin, xmax), ylim=(ymin, ymax), aspect="equal", xlabel="x (m)", ylabel="y (m)")
     ax.legend(loc="upper right", fontsize=7)
-    fig.tight_layout()
+    # fixed margins, no layout engine: with one, savefig draws every frame twice
+    fig.subplots_adjust(left=0.12, right=0.97, bottom=0.08, top=0.94)
 
     def draw(f: Frame) -> None:
         world_map.set_data(np.ma.masked_equal(f.prob, UNSEEN) / 254.0)

@@ -317,7 +317,8 @@ def explore(
     animate: bool = typer.Option(False, help="write figures/animation.gif (and .mp4 with ffmpeg): "
                                  f"a frame every animate_every steps (config; {ANIMATE_EVERY} if unset)"),
     rerun: Optional[Path] = typer.Option(None, help="record the run for the Rerun viewer to this "
-                                         ".rrd file (pip install gpexplore[viz])"),
+                                         ".rrd file (pip install "
+                                         r"gpexplore\[viz])"),
 ):
     """Explore a world with SLAM, the map and the frontier explorer in the loop; write results."""
     from sim.episode import run_episode
@@ -350,7 +351,7 @@ def _rerun_log(path: Path, world):
     try:
         import rerun  # noqa: F401
     except ImportError:
-        console.print("[red]error:[/red] --rerun needs the Rerun SDK: pip install gpexplore[viz]")
+        console.print(r"[red]error:[/red] --rerun needs the Rerun SDK: pip install gpexplore\[viz]")
         raise typer.Exit(2) from None
     from sim.rerun_log import RerunLog
 
