@@ -1,3 +1,5 @@
+import shutil
+
 import numpy as np
 import pytest
 from PIL import Image
@@ -101,3 +103,11 @@ def test_frames_are_reproducible_and_do_not_change_the_run(run):
     m, p = dict(run.metrics), dict(plain.metrics)
     m.pop("wall_time_s"), p.pop("wall_time_s")
     assert m == p
+
+
+@pytest.mark.skipif(shutil.which("ffmpeg") is None, reason="ffmpeg is not on PATH")
+def test_mp4_when_ffmpeg_is_on_path(run, tmp_path):
+    written = write_animation(tmp_path, run)
+    assert tmp_path / "animation.mp4" in written
+    head = (tmp_path / "animation.mp4").read_bytes()[:12]
+    assert head[4:8] == b"ftyp"     # an MP4 (ISO media) file
