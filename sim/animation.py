@@ -67,8 +67,9 @@ class FrameRecorder:
             self.frames.append(self._capture(step, stack, pose))
 
     def _keep_frontier(self, stack: Stack, out: StackStep) -> None:
-        """The clusters of the last goal choice (a plan that keeps its goal has none); the grid
-        baseline's frontier cells of every plan, in meters while the map frame is the plan's."""
+        """The clusters of the last goal choice (a plan that keeps its goal has none); for the
+        grid baseline, every plan's frontier cells, turned into meters at once, while the map's
+        frame is still the one the plan was made on."""
         plan = out.plan
         if stack.method == "gp":
             if plan.new_goal or plan.goal is None:
@@ -85,9 +86,10 @@ class FrameRecorder:
 
     def _capture(self, step: int, stack: Stack, pose) -> Frame:
         prob = stack.map.prob()
-        stride = max(1, -(-max(prob.shape) // MAX_CELLS))
-        coded = np.round(254 * prob[::stride, ::stride]).astype(np.uint8)
-        coded[np.abs(prob[::stride, ::stride] - 0.5) <= 0.01] = UNSEEN
+        stride = max(1, -(-max(prob.shape) // MAX_CELLS))   # every stride-th cell: a preview
+        prob = prob[::stride, ::stride]
+        coded = np.round(254 * prob).astype(np.uint8)
+        coded[np.abs(prob - 0.5) <= 0.01] = UNSEEN
         h, w = coded.shape
         size = stride * stack.map_resolution
         x0, _, y0, _ = stack.map.frame.extent

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from sim.animation import MAX_CELLS, UNSEEN, write_animation
+from sim import animation
+from sim.animation import MAX_CELLS, UNSEEN, FrameRecorder, write_animation
 from sim.episode import EpisodeConfig, run_episode
 from sim.stack import StackConfig
 from sim.worlds import BUILTIN_WORLDS
@@ -111,3 +112,17 @@ def test_mp4_when_ffmpeg_is_on_path(run, tmp_path):
     assert tmp_path / "animation.mp4" in written
     head = (tmp_path / "animation.mp4").read_bytes()[:12]
     assert head[4:8] == b"ftyp"     # an MP4 (ISO media) file
+
+
+def test_large_maps_are_recorded_strided_over_the_same_extent(run, monkeypatch):
+    monkeypatch.setattr(animation, "MAX_CELLS", 50)
+    recorder = FrameRecorder(every=1)
+    recorder.finish(0, run.stack, run.estimate[0])
+    small, full = recorder.frames[0], run.frames[-1]
+    assert max(small.prob.shape) <= 50 < max(full.prob.shape)
+    stride = -(-max(full.prob.shape) // 50)
+    np.testing.assert_array_equal(small.prob, full.prob[::stride, ::stride])
+    # the same corner; the far edges overhang by less than one strided cell
+    assert small.extent[0] == full.extent[0] and small.extent[2] == full.extent[2]
+    cell = stride * run.stack.map_resolution
+    assert 0 <= small.extent[1] - full.extent[1] < cell and 0 <= small.extent[3] - full.extent[3] < cell
