@@ -28,11 +28,13 @@ class RerunLog:
 
     def __init__(self, path: str | Path, world: World):
         import rerun as rr
+        import rerun.blueprint as rrb
 
         self.rr = rr
         Path(path).parent.mkdir(parents=True, exist_ok=True)
         self.rec = rr.RecordingStream("gpexplore")
-        self.rec.save(path)
+        # one 2-D view from the root, so that the flip of "world" below applies to all of it
+        self.rec.save(path, default_blueprint=rrb.Spatial2DView(origin="/", name="gpexplore"))
         # 2-D views draw y downwards: flip the world so that its y axis points up
         self.rec.log("world", rr.Transform3D(mat3x3=np.diag([1.0, -1.0, 1.0])), static=True)
         xmin, _, ymin, _ = world.extent
