@@ -322,6 +322,10 @@ def _world_and_start(world: str, size, resolution, start, radius: float):
     return w, pose
 
 
+#: Steps between animation frames for ``explore --animate`` when the configuration sets none.
+ANIMATE_EVERY = 10
+
+
 @app.command()
 def explore(
     world: str = typer.Option("cave", help="built-in name (cave, office), bitmap or ROS .yaml"),
@@ -337,6 +341,11 @@ def explore(
     max_steps: Optional[int] = typer.Option(None, help="scans before the run stops; default: max_steps"),
     config: Optional[Path] = typer.Option(None, help="configuration (TOML, see `gpexplore config dump`)"),
     out: Path = typer.Option(Path("results/explore"), help="output directory"),
+    animate: bool = typer.Option(False, help="write figures/animation.gif (and .mp4 with ffmpeg): "
+                                 f"a frame every animate_every steps (config; {ANIMATE_EVERY} if unset)"),
+    rerun: Optional[Path] = typer.Option(None, help="record the run for the Rerun viewer to this "
+                                         ".rrd file (pip install "
+                                         r"gpexplore\[viz])"),
 ):
     """Explore a world with SLAM, the map and the frontier explorer in the loop; write results and
     config.toml, the configuration used (--config config.toml with the same seed runs it again)."""
@@ -344,8 +353,13 @@ def explore(
     from sim.results import write_episode
 
     cfg = _config_for(_episode_config(config), method, poses, max_steps)
+    if animate and not cfg.animate_every:
+        cfg = cfg.model_copy(update={"animate_every": ANIMATE_EVERY})
     w, pose = _world_and_start(world, size, resolution, start, cfg.robot.radius)
-    result = run_episode(w, pose, cfg, seed=seed, progress=True)
+    watch = _rerun_log(rerun, w) if rerun else None
+    result = run_episode(w, pose, cfg, seed=seed, progress=True, watch=watch)
+    if watch:
+        watch.close()
     write_episode(out, result)
     m = result.metrics
     console.print(f"{m['termination_reason']}: {m['travel_distance_m']:.1f} m in {m['sim_time_s']:.0f} s of "
@@ -355,6 +369,22 @@ def explore(
     console.print(f"results in {out}/: metrics.json, config.toml, trajectory.tum, ground_truth.tum, "
                   f"graph.g2o, map.pgm, map.yaml{', com.npz' if cfg.stack.explorer.method == 'gp' else ''}, "
                   "figures/")
+    if rerun:
+        console.print(f"Rerun recording: {rerun} (open it with: rerun {rerun})")
+
+
+def _rerun_log(path: Path, world):
+    """The Rerun recorder of a run; exit 2 when rerun-sdk is not installed."""
+    if path.suffix != ".rrd":
+        raise typer.BadParameter(f"{path}: a Rerun recording is a .rrd file", param_hint="--rerun")
+    try:
+        import rerun  # noqa: F401
+    except ImportError:
+        console.print(r"[red]error:[/red] --rerun needs the Rerun SDK: pip install gpexplore\[viz]")
+        raise typer.Exit(2) from None
+    from sim.rerun_log import RerunLog
+
+    return RerunLog(path, world)
 
 
 def _config_for(cfg, method: Optional[str], poses: Optional[str], max_steps: Optional[int]):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import gtsam
@@ -15,11 +16,13 @@ from exploration.explorer import Plan
 from exploration.follower import FollowerConfig, PathFollower
 from mapping.drift import binary_entropy
 from mapping.metrics import roc_auc
+from sim.animation import Frame, FrameRecorder
 from sim.lidar import Lidar, LidarConfig
 from sim.odometry import Odometry, OdometryNoise
 from sim.robot import Robot, RobotConfig
-from sim.stack import Stack, StackConfig
+from sim.stack import Stack, StackConfig, StackStep
 from sim.world import World
+from slam.scan import LaserScan
 
 # Evaluation constants: they define the metrics (comparable across runs and methods), so they
 # are not part of the run's configuration.
@@ -54,6 +57,8 @@ class EpisodeConfig(BaseModel):
     stuck_progress: float = Field(0.2, gt=0, description="progress along the path (m) that restarts "
                                   "the stuck count")
     snapshots: int = Field(4, ge=0, description="frontier-map snapshots kept for figures")
+    animate_every: int = Field(0, ge=0, description="steps between the animation's frames "
+                               "(0: no animation)")
 
     @model_validator(mode="after")
     def _planner_fits_the_robot(self):
@@ -82,8 +87,10 @@ class EpisodeResult:
     estimate: list[gtsam.Pose2] = field(default_factory=list)
     curve: list[tuple[int, float, float, float]] = field(default_factory=list)  # step, m, coverage, H
     snapshots: list[Snapshot] = field(default_factory=list)
+    frames: list[Frame] = field(default_factory=list)
     stack: Stack | None = None
     config: EpisodeConfig | None = None
+    world: World | None = None
 
 
 class _Evaluator:
@@ -116,10 +123,13 @@ class _Evaluator:
 
 
 def run_episode(world: World, start: gtsam.Pose2, config: EpisodeConfig | None = None,
-                seed: int = 0, progress: bool = False) -> EpisodeResult:
+                seed: int = 0, progress: bool = False,
+                watch: Callable[[int, float, Stack, StackStep, LaserScan, gtsam.Pose2], None]
+                | None = None) -> EpisodeResult:
     """Explore ``world`` from ``start`` until no frontier is left, or the step budget ends.
 
-    Every random draw (lidar noise, odometry noise, k-means) comes from ``seed``.
+    Every random draw (lidar noise, odometry noise, k-means) comes from ``seed``. ``watch``,
+    when given, sees every scan: ``watch(step, t, stack, out, scan, true_pose)``.
     """
     c = config or EpisodeConfig()
     lidar_seed, odom_seed, stack_seed = np.random.SeedSequence(seed).spawn(3)
@@ -131,7 +141,8 @@ def run_episode(world: World, start: gtsam.Pose2, config: EpisodeConfig | None =
     follower = PathFollower(c.robot.max_speed, c.robot.max_turn_rate, c.follower)
     evaluator = _Evaluator(world, (start.x(), start.y()), c.robot.radius)
     dt = 1.0 / c.lidar.rate_hz
-    result = EpisodeResult(metrics={}, stack=stack, config=c)
+    result = EpisodeResult(metrics={}, stack=stack, config=c, world=world)
+    recorder = FrameRecorder(c.animate_every) if c.animate_every else None
     spin = 2 * math.pi if c.initial_spin else 0.0
     replan, reason = False, "step_budget"
     best_distance, since_progress, goals_abandoned = math.inf, 0, 0
@@ -149,6 +160,10 @@ def run_episode(world: World, start: gtsam.Pose2, config: EpisodeConfig | None =
         result.stamps.append(t)
         result.truth.append(robot.pose)
         result.estimate.append(out.pose)
+        if recorder is not None:
+            recorder.observe(step, stack, out)
+        if watch is not None:
+            watch(step, t, stack, out, scan, robot.pose)
         if out.plan is not None and out.plan.new_goal and len(result.snapshots) < c.snapshots \
                 and stack.explorer.goals_chosen in (1, 3, 6, 10, 15, 21)[:c.snapshots]:
             result.snapshots.append(Snapshot(step, out.pose, out.plan, stack.map.origin.copy(),
@@ -187,6 +202,9 @@ def run_episode(world: World, start: gtsam.Pose2, config: EpisodeConfig | None =
     wall = time.perf_counter() - tic
     prob = stack.map.prob()
     steps = len(result.stamps)
+    if recorder is not None:
+        recorder.finish(steps - 1, stack, result.estimate[-1])
+        result.frames = recorder.frames
     result.curve.append((steps, robot.distance, evaluator.coverage(stack, prob),
                          evaluator.entropy(stack, prob)))
     curve = np.array(result.curve)

@@ -8,6 +8,7 @@ import numpy as np
 
 from mapping.export import save_com, write_ros_map
 from sim.config_file import CONFIG_NAME, write_config
+from sim.animation import write_animation
 from sim.episode import EpisodeResult
 from sim.figures import entropy_figure, frontier_figure, map_figure, positions
 from slam.atomic import write_json_atomic
@@ -16,8 +17,9 @@ from slam.tum import write_tum
 
 def write_episode(out: str | Path, result: EpisodeResult) -> None:
     """metrics.json, config.toml (the run's configuration), trajectory.tum, ground_truth.tum,
-    graph.g2o, com.npz (GP method), map.pgm + map.yaml and figures/ in ``out``; metrics.json is
-    written last, so a folder that has it holds a finished run."""
+    graph.g2o, com.npz (GP method), map.pgm + map.yaml and figures/ (with the animation when
+    frames were recorded) in ``out``; metrics.json is written last, so a folder that has it
+    holds a finished run."""
     out = Path(out)
     stack = result.stack
     if result.config is not None:
@@ -47,6 +49,8 @@ def _figures(folder: Path, result: EpisodeResult, prob: np.ndarray) -> None:
                result.truth, loops, title)
     frontier_figure(folder / "frontier_maps.png", result.snapshots)
     entropy_figure(folder / "entropy.png", {m["method"]: result.curve})
+    if result.frames:
+        write_animation(folder, result)
     if stack.method == "gp":
         from mapping.figure import com_figure
 

@@ -1,0 +1,128 @@
+import shutil
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from sim import animation
+from sim.animation import MAX_CELLS, UNSEEN, FrameRecorder, write_animation
+from sim.episode import EpisodeConfig, run_episode
+from sim.stack import StackConfig
+from sim.worlds import BUILTIN_WORLDS
+
+EVERY = 7
+
+
+def cave_run(method: str, animate_every: int, watch=None):
+    cave = BUILTIN_WORLDS["cave"]()
+    config = EpisodeConfig(max_steps=90, animate_every=animate_every,
+                           stack=StackConfig(poses="truth", explorer={"method": method}))
+    return run_episode(cave.world, cave.start, config, seed=3, watch=watch)
+
+
+@pytest.fixture(scope="module", params=["gp", "grid"])
+def run(request):
+    """A short run; ``last_plan`` and ``goal_choice`` are the last plan and the last that chose
+    a goal (or ended exploring), each with the map origin and resolution then."""
+    seen = {"goal_choices": 0}
+
+    def watch(step, t, stack, out, scan, truth):
+        if out.plan is not None:
+            seen["last_plan"] = (out.plan, stack.map.origin.copy(), stack.map_resolution)
+            if out.plan.new_goal or out.plan.goal is None:
+                seen["goal_choice"] = seen["last_plan"]
+                seen["goal_choices"] += 1
+
+    result = cave_run(request.param, EVERY, watch)
+    result.last_plan, result.goal_choice = seen["last_plan"], seen["goal_choice"]
+    result.goal_choices = seen["goal_choices"]
+    return result
+
+
+def test_a_frame_every_n_steps_and_at_the_last_step(run):
+    steps = run.metrics["steps"]
+    expected = list(range(0, steps, EVERY))
+    if expected[-1] != steps - 1:
+        expected.append(steps - 1)
+    assert [f.step for f in run.frames] == expected
+
+
+def test_frames_hold_the_run_at_their_step(run):
+    for f in run.frames:
+        p = run.estimate[f.step]
+        np.testing.assert_allclose(f.pose, [p.x(), p.y(), p.theta()])
+    last = run.frames[-1]
+    stack = run.stack
+    # the last frame shows the final map, plan and the whole estimated trajectory
+    np.testing.assert_array_equal(last.goal, stack.plan.goal)
+    np.testing.assert_allclose(last.path, stack.plan.path, atol=1e-5)
+    prob = stack.map.prob()
+    assert max(prob.shape) <= MAX_CELLS and last.prob.shape == prob.shape
+    seen = last.prob != UNSEEN
+    np.testing.assert_array_equal(seen, np.abs(prob - 0.5) > 0.01)
+    np.testing.assert_allclose(last.prob[seen] / 254, prob[seen], atol=0.5 / 254)
+    x0, x1, y0, y1 = last.extent
+    assert (x1 - x0, y1 - y0) == pytest.approx((prob.shape[1] * stack.map_resolution,
+                                                prob.shape[0] * stack.map_resolution))
+    # the map grows while the robot explores
+    assert (run.frames[0].prob != UNSEEN).sum() < seen.sum()
+
+
+def test_the_frontier_is_the_last_goal_choices(run):
+    """The frames show the frontier clusters the goal was chosen from (gp), or the frontier
+    cells of the last plan (grid), in meters."""
+    assert run.goal_choices >= 2
+    last = run.frames[-1]
+    if run.metrics["method"] == "gp":
+        clusters = run.goal_choice[0].clusters
+        np.testing.assert_allclose(last.frontier, np.vstack([k.points for k in clusters]), atol=1e-5)
+        np.testing.assert_array_equal(np.bincount(last.labels), [len(k.points) for k in clusters])
+    else:
+        plan, origin, resolution = run.last_plan   # the grid's frontier comes with every plan
+        iy, ix = np.nonzero(plan.frontier)
+        np.testing.assert_allclose(last.frontier, origin + resolution * np.column_stack([ix, iy]),
+                                   atol=1e-5)
+        assert len(last.frontier) > 0 and np.all(last.labels == 0)
+
+
+def test_gif_has_one_frame_per_recorded_frame(run, tmp_path):
+    written = write_animation(tmp_path, run)
+    assert tmp_path / "animation.gif" in written
+    with Image.open(tmp_path / "animation.gif") as gif:
+        assert gif.n_frames == len(run.frames)
+        assert gif.size[0] >= 400
+
+
+def test_frames_are_reproducible_and_do_not_change_the_run(run):
+    method = run.metrics["method"]
+    again = cave_run(method, EVERY)
+    plain = cave_run(method, 0)
+    assert plain.frames == []
+    for a, b in zip(run.frames, again.frames, strict=True):
+        for name, value in vars(a).items():
+            np.testing.assert_array_equal(value, getattr(b, name), err_msg=name)
+    m, p = dict(run.metrics), dict(plain.metrics)
+    m.pop("wall_time_s"), p.pop("wall_time_s")
+    assert m == p
+
+
+@pytest.mark.skipif(shutil.which("ffmpeg") is None, reason="ffmpeg is not on PATH")
+def test_mp4_when_ffmpeg_is_on_path(run, tmp_path):
+    written = write_animation(tmp_path, run)
+    assert tmp_path / "animation.mp4" in written
+    head = (tmp_path / "animation.mp4").read_bytes()[:12]
+    assert head[4:8] == b"ftyp"     # an MP4 (ISO media) file
+
+
+def test_large_maps_are_recorded_strided_over_the_same_extent(run, monkeypatch):
+    monkeypatch.setattr(animation, "MAX_CELLS", 50)
+    recorder = FrameRecorder(every=1)
+    recorder.finish(0, run.stack, run.estimate[0])
+    small, full = recorder.frames[0], run.frames[-1]
+    assert max(small.prob.shape) <= 50 < max(full.prob.shape)
+    stride = -(-max(full.prob.shape) // 50)
+    np.testing.assert_array_equal(small.prob, full.prob[::stride, ::stride])
+    # the same corner; the far edges overhang by less than one strided cell
+    assert small.extent[0] == full.extent[0] and small.extent[2] == full.extent[2]
+    cell = stride * run.stack.map_resolution
+    assert 0 <= small.extent[1] - full.extent[1] < cell and 0 <= small.extent[3] - full.extent[3] < cell
