@@ -129,3 +129,31 @@ def test_compare_is_a_one_world_campaign(tmp_path):
     assert result.exit_code == 0, result.output
     assert json.loads((out / "room.png" / "grid" / "seed_0" / "metrics.json").read_text())["method"] == "grid"
     assert "Travel distance (m)" in result.output and (out / "table.md").exists()
+
+
+@pytest.mark.slow
+def test_a_killed_campaign_resumes_without_redoing_finished_runs(tmp_path):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "c"
+    command = [sys.executable, "-m", "sim.cli", "campaign", "--worlds", str(room(tmp_path)), "--size", "5", "3",
+               "--methods", "grid", "--seeds", "4", "--poses", "truth", "--max-steps", "150", "--workers", "1",
+               "--out", str(out)]
+    metrics = [out / "room.png" / "grid" / f"seed_{k}" / "metrics.json" for k in range(4)]
+    first = subprocess.Popen(command, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 300
+    while not any(m.exists() for m in metrics) and first.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    os.killpg(first.pid, signal.SIGKILL)  # the campaign and its workers, mid-run
+    first.wait()
+    done = {m: m.stat().st_mtime_ns for m in metrics if m.exists()}
+    assert 1 <= len(done) < len(metrics)
+    again = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert f"{len(done)} runs were done before, {4 - len(done)} finished now, 0 failed" in again.stdout
+    assert all(m.exists() for m in metrics)
+    assert {m: m.stat().st_mtime_ns for m in done} == done
