@@ -79,11 +79,12 @@ class Run:
 
 def plan(out: str | Path, worlds: list[WorldSpec], configs: dict[str, EpisodeConfig],
          seeds: list[int]) -> list[Run]:
-    """Every (world, method, seed) run, each in ``<out>/<world>/<method>/seed_<k>/``."""
+    """Every (world, method, seed) run, each in ``<out>/<world>/<method>/seed_<k>/`` (an absolute
+    path: workers need not share this process's working directory)."""
     names = [w.name for w in worlds]
     if len(set(names)) < len(names):
         raise ValueError(f"two worlds share a folder name: {', '.join(names)} (rename a map file)")
-    out = Path(out)
+    out = Path(out).absolute()
     return [Run(w, config.model_dump(), seed, str(out / w.name / method / f"seed_{seed}"))
             for w in worlds for method, config in configs.items() for seed in seeds]
 
@@ -133,23 +134,20 @@ def run_campaign(runs: list[Run], engine, on_end=None) -> dict[str, int]:
 
 def results(runs: list[Run]) -> dict[str, dict[str, list[dict]]]:
     """Metrics of the finished runs by world and method, in the order of ``runs``."""
-    out: dict[str, dict[str, list[dict]]] = {}
-    for run in runs:
-        methods = out.setdefault(run.world.name, {})
-        metrics = methods.setdefault(run.method, [])
-        if finished(run):
-            metrics.append(json.loads((Path(run.folder) / "metrics.json").read_text()))
-    return out
+    return _finished_by_world_and_method(runs, lambda folder: json.loads((folder / "metrics.json").read_text()))
 
 
 def curves(runs: list[Run]) -> dict[str, dict[str, list[dict[str, np.ndarray]]]]:
-    """The curve.csv samples of the finished runs by world and method."""
+    """The curve.csv samples of the finished runs by world and method, in the order of ``runs``."""
+    return _finished_by_world_and_method(runs, lambda folder: read_curve(folder / "curve.csv"))
+
+
+def _finished_by_world_and_method(runs: list[Run], read) -> dict[str, dict[str, list]]:
     out: dict[str, dict[str, list]] = {}
     for run in runs:
-        methods = out.setdefault(run.world.name, {})
-        samples = methods.setdefault(run.method, [])
+        found = out.setdefault(run.world.name, {}).setdefault(run.method, [])
         if finished(run):
-            samples.append(read_curve(Path(run.folder) / "curve.csv"))
+            found.append(read(Path(run.folder)))
     return out
 
 

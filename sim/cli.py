@@ -351,7 +351,8 @@ def _world_spec(world: str, size, resolution, start, radius: float):
     bitmap = world not in BUILTIN_WORLDS and Path(world).suffix.lower() not in (".yaml", ".yml")
     size, resolution = (size, resolution) if bitmap else (None, None)
     _, pose = _world_and_start(world, size, resolution, start, radius)
-    return WorldSpec(world, (pose.x(), pose.y(), pose.theta()), size, resolution)
+    spec = world if world in BUILTIN_WORLDS else str(Path(world).absolute())
+    return WorldSpec(spec, (pose.x(), pose.y(), pose.theta()), size, resolution)
 
 
 def _names(text: str, option: str) -> list[str]:
