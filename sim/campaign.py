@@ -1,20 +1,29 @@
-"""Campaigns: both methods over seeded runs on one world, and the paper's Table I from them.
+"""Campaigns: every (world, method, seed) run in parallel on an engine, and the paper's Table I.
 
-Each run writes its own folder (``<out>/<method>/seed_<k>/``); a run whose ``metrics.json``
-exists is finished and is not run again, so an interrupted campaign resumes where it stopped.
+Each run writes its own folder (``<out>/<world>/<method>/seed_<k>/``) as soon as it finishes; a
+run whose ``metrics.json`` exists is finished and is not run again, so an interrupted campaign
+resumes where it stopped. A run that fails leaves ``error.json`` (with the traceback) in its
+folder instead, does not stop the others, and is run again on resume.
 """
 
 from __future__ import annotations
 
+import csv
+import io
 import json
+import traceback
+from collections import Counter
+from dataclasses import dataclass
 from pathlib import Path
 
 import gtsam
 import numpy as np
 
 from sim.episode import EpisodeConfig, run_episode
-from sim.results import write_episode
+from sim.results import read_curve, write_episode
 from sim.world import World
+from sim.worlds import BUILTIN_WORLDS
+from slam.atomic import write_json_atomic, write_text_atomic
 
 #: Table I rows: (label, metrics key, scale).
 ROWS = [
@@ -33,22 +42,113 @@ ROWS = [
 ]
 
 
-def run_campaign(world: World, start: gtsam.Pose2, configs: dict[str, EpisodeConfig],
-                 seeds: list[int], out: str | Path, progress=None) -> dict[str, list[dict]]:
-    """Run every (method, seed) not yet finished; returns the metrics of all runs by method."""
-    out = Path(out)
-    results: dict[str, list[dict]] = {}
-    for method, config in configs.items():
-        results[method] = []
-        for seed in seeds:
-            folder = out / method / f"seed_{seed}"
-            done = folder / "metrics.json"
-            if not done.exists():
-                write_episode(folder, run_episode(world, start, config, seed=seed))
-            results[method].append(json.loads(done.read_text()))
-            if progress is not None:
-                progress(method, seed, results[method][-1])
-    return results
+@dataclass(frozen=True)
+class WorldSpec:
+    """A world as a worker loads it: a built-in name, a bitmap (with ``size`` W, H in m or
+    ``resolution`` in m/pixel) or a ROS .yaml map, and the start X, Y, THETA (m, m, rad)."""
+
+    spec: str
+    start: tuple[float, float, float]
+    size: tuple[float, float] | None = None
+    resolution: float | None = None
+
+    @property
+    def name(self) -> str:
+        """The world's folder in a campaign: the built-in name or the map's file name."""
+        return self.spec if self.spec in BUILTIN_WORLDS else Path(self.spec).name
+
+    def load(self) -> World:
+        from sim.world_io import load_world
+
+        return load_world(self.spec, size=self.size, resolution=self.resolution)
+
+
+@dataclass(frozen=True)
+class Run:
+    """One run of a campaign, plain data that pickles cheaply: the world is loaded by the worker."""
+
+    world: WorldSpec
+    config: dict  # EpisodeConfig.model_dump()
+    seed: int
+    folder: str
+
+    @property
+    def method(self) -> str:
+        return self.config["stack"]["explorer"]["method"]
+
+
+def plan(out: str | Path, worlds: list[WorldSpec], configs: dict[str, EpisodeConfig],
+         seeds: list[int]) -> list[Run]:
+    """Every (world, method, seed) run, each in ``<out>/<world>/<method>/seed_<k>/`` (an absolute
+    path: workers need not share this process's working directory)."""
+    names = [w.name for w in worlds]
+    if len(set(names)) < len(names):
+        raise ValueError(f"two worlds share a folder name: {', '.join(names)} (rename a map file)")
+    out = Path(out).absolute()
+    return [Run(w, config.model_dump(), seed, str(out / w.name / method / f"seed_{seed}"))
+            for w in worlds for method, config in configs.items() for seed in seeds]
+
+
+def execute(run: Run) -> dict:
+    """Load the world, explore it and write the run's folder; the run's metrics. Runs in a worker."""
+    world = run.world.load()
+    result = run_episode(world, gtsam.Pose2(*run.world.start), EpisodeConfig.model_validate(run.config),
+                         seed=run.seed)
+    write_episode(run.folder, result)
+    return result.metrics
+
+
+def finished(run: Run) -> bool:
+    return (Path(run.folder) / "metrics.json").exists()
+
+
+def failed(run: Run) -> bool:
+    return not finished(run) and (Path(run.folder) / "error.json").exists()
+
+
+def run_campaign(runs: list[Run], engine, on_end=None) -> dict[str, int]:
+    """Run every unfinished run on ``engine``, all at once, and record each as it ends.
+
+    ``on_end(run, metrics, error)`` is called as each run ends (``error`` is the traceback of a
+    failed run, else None). Returns how many runs were already done, finished now and failed.
+    """
+    pending = [r for r in runs if not finished(r)]
+    futures = {engine.submit(execute, r): r for r in pending}
+    summary = {"done_before": len(runs) - len(pending), "finished": 0, "failed": 0}
+    for future in engine.as_completed(futures):
+        run = futures[future]
+        error_file = Path(run.folder) / "error.json"
+        try:
+            metrics, error = future.result(), None
+            error_file.unlink(missing_ok=True)
+            summary["finished"] += 1
+        except Exception as err:  # a failed run is recorded and the others go on
+            metrics, error = None, "".join(traceback.format_exception(err))
+            write_json_atomic(error_file, {"world": run.world.name, "method": run.method, "seed": run.seed,
+                                           "error": f"{type(err).__name__}: {err}", "traceback": error})
+            summary["failed"] += 1
+        if on_end is not None:
+            on_end(run, metrics, error)
+    return summary
+
+
+def results(runs: list[Run]) -> dict[str, dict[str, list[dict]]]:
+    """Metrics of the finished runs by world and method, in the order of ``runs``."""
+    return _finished_by_world_and_method(runs, lambda folder: json.loads((folder / "metrics.json").read_text()))
+
+
+def curves(runs: list[Run]) -> dict[str, dict[str, list[dict[str, np.ndarray]]]]:
+    """The curve.csv samples of the finished runs by world and method, in the order of ``runs``."""
+    return _finished_by_world_and_method(runs, lambda folder: read_curve(folder / "curve.csv"))
+
+
+def _finished_by_world_and_method(runs: list[Run], read) -> dict[str, dict[str, list]]:
+    out: dict[str, dict[str, list]] = {}
+    for run in runs:
+        found = out.setdefault(run.world.name, {}).setdefault(run.method, [])
+        if finished(run):
+            found.append(read(Path(run.folder)))
+    return out
 
 
 def _value(metrics: dict, key):
@@ -85,3 +185,59 @@ def termination_counts(results: dict[str, list[dict]]) -> dict[str, dict[str, in
         reasons = [m["termination_reason"] for m in runs]
         counts[method] = {r: reasons.count(r) for r in sorted(set(reasons))}
     return counts
+
+
+def cell(value: dict, runs: int) -> str:
+    """A Table I entry: mean ± standard error, with the number of runs when some are missing."""
+    if value["mean"] is None:
+        return "—"
+    return f"{value['mean']:.4g} ± {value['stderr']:.2g}" + (f" (n={value['n']})" if value["n"] < runs else "")
+
+
+def write_tables(out: str | Path, runs: list[Run]) -> dict[str, list[dict]]:
+    """``table.md`` (Table I per world) and ``table.csv`` (world, metric, method, mean, stderr,
+    n) in ``out`` from the finished runs; returns the rows by world."""
+    out = Path(out)
+    planned = Counter((r.world.name, r.method) for r in runs)
+    lost = Counter((r.world.name, r.method) for r in runs if failed(r))
+    md, rows_by_world = [], {}
+    text = io.StringIO()
+    sheet = csv.writer(text, lineterminator="\n")
+    sheet.writerow(["world", "metric", "method", "mean", "stderr", "n"])
+    for world, by_method in results(runs).items():
+        methods = list(by_method)
+        rows = rows_by_world[world] = table(by_method)
+        md += [f"## {world}", "", "| metric | " + " | ".join(methods) + " |", "|---|" + "---:|" * len(methods)]
+        for row in rows:
+            md.append(f"| {row['metric']} | " + " | ".join(cell(row[m], planned[world, m]) for m in methods) + " |")
+            sheet.writerows([world, row["metric"], m, _csv_number(row[m]["mean"]),
+                             _csv_number(row[m]["stderr"]), row[m]["n"]] for m in methods)
+        finished_runs = ", ".join(f"{m} {len(by_method[m])}/{planned[world, m]}"
+                                  + (f" ({lost[world, m]} failed)" if lost[world, m] else "") for m in methods)
+        md += ["", f"Runs finished: {finished_runs}. Ended: {termination_counts(by_method)}.", ""]
+    write_text_atomic(out / "table.md", "# Table I: mean ± standard error over seeds\n\n" + "\n".join(md))
+    write_text_atomic(out / "table.csv", text.getvalue())
+    return rows_by_world
+
+
+def _csv_number(v: float | None) -> str:
+    return "" if v is None else repr(v)
+
+
+def write_figures(out: str | Path, runs: list[Run]) -> list[Path]:
+    """Per world, figures comparing the methods over the finished runs in ``out/figures/``:
+    travel distance, coverage over travel and time, map entropy over steps."""
+    from sim.campaign_figures import coverage_figure, entropy_band_figure, travel_figure
+
+    folder = Path(out) / "figures"
+    by_world, curves_by_world = results(runs), curves(runs)
+    paths = []
+    for world, by_method in by_world.items():
+        if not any(by_method.values()):
+            continue
+        paths += [folder / f"{world}_travel.png", folder / f"{world}_coverage.png",
+                  folder / f"{world}_entropy.png"]
+        travel_figure(paths[-3], by_method, world)
+        coverage_figure(paths[-2], curves_by_world[world], world)
+        entropy_band_figure(paths[-1], curves_by_world[world], world)
+    return paths

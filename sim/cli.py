@@ -407,6 +407,104 @@ def _config_for(cfg, method: Optional[str], poses: Optional[str], max_steps: Opt
                                  param_hint="--method/--poses/--max-steps") from None
 
 
+def _world_spec(world: str, size, resolution, start, radius: float):
+    """A campaign's world, checked here (it loads, its start is free) and loaded again by each worker."""
+    from sim.campaign import WorldSpec
+    from sim.worlds import BUILTIN_WORLDS
+
+    bitmap = world not in BUILTIN_WORLDS and Path(world).suffix.lower() not in (".yaml", ".yml")
+    size, resolution = (size, resolution) if bitmap else (None, None)
+    _, pose = _world_and_start(world, size, resolution, start, radius)
+    spec = world if world in BUILTIN_WORLDS else str(Path(world).absolute())
+    return WorldSpec(spec, (pose.x(), pose.y(), pose.theta()), size, resolution)
+
+
+def _names(text: str, option: str) -> list[str]:
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    if not names or len(set(names)) < len(names):
+        raise typer.BadParameter(f"'{text}' is not a comma-separated list of distinct names", param_hint=option)
+    return names
+
+
+def _run_and_report(worlds, configs, seeds: int, out: Path, engine: str, workers, scheduler) -> None:
+    """Run the campaign with a progress bar over its runs, write table.md, table.csv and figures/,
+    print Table I per world; exit 1 when runs failed."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.table import Table
+
+    from sim.campaign import cell, finished, plan, run_campaign, write_figures, write_tables
+    from sim.engines import make_engine
+
+    try:
+        runs = plan(out, worlds, configs, list(range(seeds)))
+    except ValueError as err:
+        raise typer.BadParameter(str(err), param_hint="--worlds") from None
+    try:
+        pool = make_engine(engine, workers, scheduler)
+    except (ValueError, ImportError) as err:
+        raise typer.BadParameter(str(err), param_hint="--engine") from None
+    except OSError as err:
+        raise typer.BadParameter(f"no Dask scheduler at {scheduler}: {err}", param_hint="--scheduler") from None
+    columns = (TextColumn("runs"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+    with pool, Progress(*columns, console=console) as bar:
+        task = bar.add_task("runs", total=len(runs), completed=sum(finished(r) for r in runs))
+        console.print(f"{len(runs)} runs on the {pool.name} engine ({pool.workers} workers), results in {out}/")
+
+        def report(run, m, error):
+            name = f"{run.world.name} {run.method} seed {run.seed}"
+            if error is None:
+                bar.console.print(f"{name}: {m['termination_reason']}, {m['travel_distance_m']:.1f} m, coverage "
+                                  f"{100 * m['coverage']:.1f} %, {m['wall_time_s']:.1f} s wall")
+            else:
+                bar.console.print(f"[red]{name} failed:[/red] {error.strip().splitlines()[-1]}")
+            bar.advance(task)
+
+        summary = run_campaign(runs, pool, report)
+    rows = write_tables(out, runs)
+    figures = write_figures(out, runs)
+    methods = list(configs)
+    for world, world_rows in rows.items():
+        view = Table(title=f"{world}: {seeds} runs per method, mean ± standard error")
+        view.add_column("metric")
+        for method in methods:
+            view.add_column(method, justify="right")
+        for row in world_rows:
+            view.add_row(row["metric"], *(cell(row[m], seeds) for m in methods))
+        console.print(view)
+    console.print(f"{summary['done_before']} runs were done before, {summary['finished']} finished now, "
+                  f"{summary['failed']} failed")
+    console.print(f"results in {out}/: <world>/<method>/seed_<k>/, table.md, table.csv, "
+                  f"figures/ ({len(figures)} figures)")
+    if summary["failed"]:
+        console.print("[red]failed runs[/red] (error.json in their folders; run again to retry them)")
+        raise typer.Exit(1)
+
+
+@app.command()
+def campaign(
+    worlds: str = typer.Option("cave,office", help="comma-separated worlds: built-in names, bitmaps, ROS .yaml"),
+    methods: str = typer.Option("gp,grid", help="comma-separated methods"),
+    seeds: int = typer.Option(10, min=1, help="runs per world and method (seeds 0..N-1)"),
+    engine: str = typer.Option("local", help="local (process pool) or dask (Dask distributed)"),
+    scheduler: Optional[str] = typer.Option(None, help="Dask scheduler address (default: a local cluster)"),
+    workers: Optional[int] = typer.Option(None, min=1, help="worker processes (default: the CPU count)"),
+    size: Optional[tuple[float, float]] = typer.Option(None, help="size of the bitmap worlds, m: --size W H"),
+    resolution: Optional[float] = typer.Option(None, help="resolution of the bitmap worlds, m/pixel"),
+    poses: str = typer.Option("slam", help="slam or truth"),
+    max_steps: Optional[int] = typer.Option(None, help="scans before a run stops"),
+    config: Optional[Path] = typer.Option(None, help="run configuration (YAML, EpisodeConfig)"),
+    out: Path = typer.Option(Path("results/campaign"), help="output directory (runs resume from it)"),
+):
+    """Run every (world, method, seed) in parallel; each run lands in its folder as it finishes, so
+    an interrupted campaign resumes. Writes Table I per world (table.md, table.csv) and figures/."""
+    if scheduler is not None and workers is not None:
+        raise typer.BadParameter("the cluster at --scheduler has its own workers", param_hint="--workers")
+    base = _episode_config(config)
+    configs = {m: _config_for(base, m, poses, max_steps) for m in _names(methods, "--methods")}
+    specs = [_world_spec(w, size, resolution, None, base.robot.radius) for w in _names(worlds, "--worlds")]
+    _run_and_report(specs, configs, seeds, out, engine, workers, scheduler)
+
+
 @app.command()
 def compare(
     world: str = typer.Option("cave", help="built-in name (cave, office), bitmap or ROS .yaml"),
@@ -419,39 +517,12 @@ def compare(
     config: Optional[Path] = typer.Option(None, help="configuration (TOML, see `gpexplore config dump`)"),
     out: Path = typer.Option(Path("results/compare"), help="output directory (runs resume from it)"),
 ):
-    """Run the methods over seeded runs and print the paper's Table I (mean ± standard error); every
-    run's folder holds its config.toml."""
-    from rich.table import Table
-
-    from sim.campaign import run_campaign, table, termination_counts
-    from slam.atomic import write_json_atomic
-
+    """Run the methods over seeded runs on one world (a campaign on this machine's cores) and
+    print the paper's Table I (mean ± standard error); every run's folder holds its config.toml."""
     base = _episode_config(config)
-    configs = {m: _config_for(base, m, poses, None) for m in methods.split(",")}
-    w, pose = _world_and_start(world, size, resolution, start, base.robot.radius)
-
-    def report(method, seed, m):
-        console.print(f"{method} seed {seed}: {m['termination_reason']}, {m['travel_distance_m']:.1f} m, "
-                      f"coverage {100 * m['coverage']:.1f} %, {m['wall_time_s']:.1f} s wall")
-
-    results = run_campaign(w, pose, configs, list(range(seeds)), out, progress=report)
-    rows = table(results)
-    write_json_atomic(out / "table.json", {"world": w.name, "start": [pose.x(), pose.y(), pose.theta()],
-                                           "rows": rows, "termination": termination_counts(results)})
-    view = Table(title=f"{w.name}: {seeds} runs per method, mean ± standard error")
-    view.add_column("metric")
-    for method in configs:
-        view.add_column(method, justify="right")
-    for row in rows:
-        cells = []
-        for method in configs:
-            v = row[method]
-            cells.append("—" if v["mean"] is None else
-                         f"{v['mean']:.4g} ± {v['stderr']:.2g}" + (f" ({v['n']})" if v["n"] < seeds else ""))
-        view.add_row(row["metric"], *cells)
-    console.print(view)
-    console.print(f"ended: {termination_counts(results)}")
-    console.print(f"runs and table.json in {out}/")
+    configs = {m: _config_for(base, m, poses, None) for m in _names(methods, "--methods")}
+    spec = _world_spec(world, size, resolution, start, base.robot.radius)
+    _run_and_report([spec], configs, seeds, out, "local", None, None)
 
 
 config_app = typer.Typer(no_args_is_help=True, help="gpexplore's configuration file (TOML).")

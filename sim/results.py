@@ -11,19 +11,24 @@ from sim.config_file import CONFIG_NAME, write_config
 from sim.animation import write_animation
 from sim.episode import EpisodeResult
 from sim.figures import entropy_figure, frontier_figure, map_figure, positions
-from slam.atomic import write_json_atomic
+from slam.atomic import write_json_atomic, write_text_atomic
 from slam.tum import write_tum
 
 
+#: Columns of curve.csv, a run's samples over its steps.
+CURVE_COLUMNS = ("step", "time_s", "travel_m", "coverage", "entropy_nats")
+
+
 def write_episode(out: str | Path, result: EpisodeResult) -> None:
-    """metrics.json, config.toml (the run's configuration), trajectory.tum, ground_truth.tum,
-    graph.g2o, com.npz (GP method), map.pgm + map.yaml and figures/ (with the animation when
-    frames were recorded) in ``out``; metrics.json is written last, so a folder that has it
-    holds a finished run."""
+    """metrics.json, config.toml (the run's configuration), curve.csv, trajectory.tum,
+    ground_truth.tum, graph.g2o, com.npz (GP method), map.pgm + map.yaml and figures/ (with the
+    animation when frames were recorded) in ``out``; metrics.json is written last, so a folder
+    that has it holds a finished run."""
     out = Path(out)
     stack = result.stack
     if result.config is not None:
         write_config(out / CONFIG_NAME, result.config)
+    write_curve(out / "curve.csv", result)
     write_tum(out / "trajectory.tum", result.stamps, result.estimate)
     write_tum(out / "ground_truth.tum", result.stamps, result.truth)
     if stack.slam is not None:
@@ -59,3 +64,19 @@ def _figures(folder: Path, result: EpisodeResult, prob: np.ndarray) -> None:
         com_figure(folder / "com_panels.png", stack.map, positions(stack.keyframe_poses()),
                    np.vstack(hits) if hits else None, title)
 
+
+
+def write_curve(path: str | Path, result: EpisodeResult) -> None:
+    """The run's samples of travel (m), coverage and map entropy (nats) over steps, as CSV."""
+    m = result.metrics
+    curve = np.array(result.curve, dtype=float).reshape(-1, 4)
+    time = curve[:, :1] * m["sim_time_s"] / max(m["steps"], 1)
+    rows = np.hstack([curve[:, :1], time, curve[:, 1:]])
+    lines = [",".join(CURVE_COLUMNS)] + [f"{int(r[0])}," + ",".join(f"{v:.9g}" for v in r[1:]) for r in rows]
+    write_text_atomic(path, "\n".join(lines) + "\n")
+
+
+def read_curve(path: str | Path) -> dict[str, np.ndarray]:
+    """curve.csv as one array per column (``CURVE_COLUMNS``)."""
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    return dict(zip(CURVE_COLUMNS, data.T))

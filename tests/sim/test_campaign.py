@@ -1,12 +1,18 @@
+import csv
 import json
 
-import gtsam
 import numpy as np
 import pytest
+from PIL import Image
 
-import sim.campaign as campaign
-from sim.campaign import run_campaign, table, termination_counts
+from sim.campaign import (WorldSpec, execute, plan, results, run_campaign, table, termination_counts,
+                          write_figures, write_tables)
+from sim.engines import DaskEngine, LocalEngine
 from sim.episode import EpisodeConfig
+from sim.results import CURVE_COLUMNS, read_curve
+
+#: metrics that measure the machine, not the run
+WALL = ("wall_time_s",)
 
 
 def metrics(travel, coverage_99, reason="frontiers_exhausted"):
@@ -29,27 +35,134 @@ def test_table_is_mean_and_standard_error():
     assert termination_counts(results) == {"gp": {"frontiers_exhausted": 2, "no_reachable_goal": 1}}
 
 
-def test_campaign_resumes_finished_runs(tmp_path, monkeypatch):
-    calls = []
+def room_bitmap(path):
+    """A 5 m x 3 m room (at --size 5 3) with a wall stub in the middle."""
+    pixels = np.full((60, 100), 255, dtype=np.uint8)
+    pixels[:2], pixels[-2:], pixels[:, :2], pixels[:, -2:] = 0, 0, 0, 0
+    pixels[20:40, 50:54] = 0
+    Image.fromarray(pixels).save(path)
+    return path
 
-    class Result:
-        def __init__(self, seed):
-            self.metrics = metrics(10.0 + seed, 5.0)
 
-    def fake_run(world, start, config, seed):
-        calls.append(seed)
-        return Result(seed)
+@pytest.fixture
+def room(tmp_path):
+    (tmp_path / "maps").mkdir()
+    return WorldSpec(str(room_bitmap(tmp_path / "maps" / "room.png")), (0.8, 0.8, 0.5), size=(5.0, 3.0))
 
-    def fake_write(folder, result):
-        folder.mkdir(parents=True, exist_ok=True)
-        (folder / "metrics.json").write_text(json.dumps(result.metrics))
 
-    monkeypatch.setattr(campaign, "run_episode", fake_run)
-    monkeypatch.setattr(campaign, "write_episode", fake_write)
-    configs = {"gp": EpisodeConfig()}
-    first = run_campaign(None, gtsam.Pose2(), configs, [0, 1], tmp_path)
-    assert calls == [0, 1]
-    again = run_campaign(None, gtsam.Pose2(), configs, [0, 1, 2], tmp_path)
-    assert calls == [0, 1, 2]  # only the new seed ran
-    assert [m["travel_distance_m"] for m in again["gp"]] == [10.0, 11.0, 12.0]
-    assert first["gp"] == again["gp"][:2]
+@pytest.fixture(scope="module")
+def pool():
+    """Two worker processes, started once: spawning and importing is most of a tiny run's time."""
+    with LocalEngine(2) as engine:
+        yield engine
+
+
+def configs(max_steps=50):
+    base = EpisodeConfig()
+    return {m: base.model_validate({**base.model_dump(), "max_steps": max_steps, "metrics_every": 10,
+                                    "stack": {**base.stack.model_dump(), "poses": "truth",
+                                              "explorer": {**base.stack.explorer.model_dump(), "method": m}}})
+            for m in ("gp", "grid")}
+
+
+def without_wall(m):
+    return {k: v for k, v in m.items() if k not in WALL}
+
+
+def test_plan_lays_out_one_folder_per_run(tmp_path, room):
+    runs = plan(tmp_path, [room, WorldSpec("cave", (0, 0, 0))], configs(), [0, 3])
+    assert len(runs) == 8
+    assert {r.folder for r in runs} >= {str(tmp_path / "room.png" / "grid" / "seed_3"),
+                                       str(tmp_path / "cave" / "gp" / "seed_0")}
+    assert len({r.folder for r in runs}) == 8
+    with pytest.raises(ValueError, match="share a folder name"):
+        plan(tmp_path, [room, WorldSpec(str(tmp_path / "other" / "room.png"), (0, 0, 0))], configs(), [0])
+
+
+def test_dask_cluster_and_process_pool_give_the_same_runs(tmp_path, room, pool):
+    gp = {"gp": configs()["gp"]}
+    runs_local = plan(tmp_path / "local", [room], gp, [0, 1])
+    runs_dask = plan(tmp_path / "dask", [room], gp, [0, 1])
+    assert run_campaign(runs_local, pool) == {"done_before": 0, "finished": 2, "failed": 0}
+    with DaskEngine(workers=2) as engine:
+        assert run_campaign(runs_dask, engine) == {"done_before": 0, "finished": 2, "failed": 0}
+    local, dask = results(runs_local)["room.png"], results(runs_dask)["room.png"]
+    assert [m["seed"] for m in local["gp"]] == [0, 1]
+    assert [without_wall(m) for m in local["gp"]] == [without_wall(m) for m in dask["gp"]]
+    # the seeds differ: the runs are not copies of each other
+    assert local["gp"][0]["travel_distance_m"] != local["gp"][1]["travel_distance_m"]
+
+
+def test_campaign_resumes_only_unfinished_runs(tmp_path, room, pool):
+    runs = plan(tmp_path, [room], configs(), [0, 1])
+    execute(runs[0])
+    done = tmp_path / "room.png" / "gp" / "seed_0" / "metrics.json"
+    stamp = done.stat().st_mtime_ns
+    ended = []
+    summary = run_campaign(runs, pool, lambda run, m, error: ended.append(run.folder))
+    assert summary == {"done_before": 1, "finished": 3, "failed": 0}
+    assert sorted(ended) == sorted(r.folder for r in runs[1:])
+    assert done.stat().st_mtime_ns == stamp
+    assert all(len(v) == 2 for v in results(runs)["room.png"].values())
+
+
+def test_a_failed_run_is_recorded_and_retried(tmp_path, room, pool):
+    missing = WorldSpec(str(tmp_path / "later" / "hall.png"), room.start, size=room.size)
+    runs = plan(tmp_path / "out", [missing, room], configs(30), [0])
+    ended = {}
+    summary = run_campaign(runs, pool, lambda run, m, error: ended.update({run.folder: error}))
+    assert summary == {"done_before": 0, "finished": 2, "failed": 2}
+    for run in runs:
+        error_file = tmp_path / "out" / run.world.name / run.method / "seed_0" / "error.json"
+        if run.world is missing:
+            error = json.loads(error_file.read_text())
+            assert error["error"].startswith("FileNotFoundError") and "hall.png" in error["error"]
+            assert "Traceback" in error["traceback"] and error["traceback"] == ended[run.folder]
+        else:
+            assert not error_file.exists() and ended[run.folder] is None
+    write_tables(tmp_path / "out", runs)
+    assert "gp 0/1 (1 failed)" in (tmp_path / "out" / "table.md").read_text()
+
+    (tmp_path / "later").mkdir()
+    room_bitmap(tmp_path / "later" / "hall.png")  # the map arrives: the failed runs are retried
+    assert run_campaign(runs, pool) == {"done_before": 2, "finished": 2, "failed": 0}
+    assert not list((tmp_path / "out").rglob("error.json"))
+
+
+def test_tables_and_figures_come_from_the_run_folders(tmp_path, room, pool):
+    runs = plan(tmp_path, [room], configs(), [0, 1])
+    run_campaign(runs, pool)
+    rows = write_tables(tmp_path, runs)["room.png"]
+    assert rows == table(results(runs)["room.png"])
+    with open(tmp_path / "table.csv") as f:
+        sheet = list(csv.DictReader(f))
+    assert len(sheet) == 2 * len(rows)
+    for line in sheet:
+        expected = next(r for r in rows if r["metric"] == line["metric"])[line["method"]]
+        assert line["world"] == "room.png" and int(line["n"]) == expected["n"]
+        if expected["mean"] is None:
+            assert line["mean"] == ""
+        else:
+            assert float(line["mean"]) == pytest.approx(expected["mean"])
+            assert float(line["stderr"]) == pytest.approx(expected["stderr"])
+    travel = next(r for r in rows if r["metric"] == "Travel distance (m)")
+    markdown = (tmp_path / "table.md").read_text()
+    assert "## room.png" in markdown
+    assert f"| Travel distance (m) | {travel['gp']['mean']:.4g} ± {travel['gp']['stderr']:.2g} |" in markdown
+    for path in write_figures(tmp_path, runs):
+        assert path.stat().st_size > 10_000, path
+    assert sorted(p.name for p in (tmp_path / "figures").iterdir()) == [
+        "room.png_coverage.png", "room.png_entropy.png", "room.png_travel.png"]
+
+
+def test_curve_file_holds_the_runs_samples(tmp_path, room):
+    run = plan(tmp_path, [room], configs(), [0])[0]
+    m = execute(run)
+    curve = read_curve(f"{run.folder}/curve.csv")
+    assert list(curve) == list(CURVE_COLUMNS)
+    assert curve["step"][0] == 0 and curve["step"][-1] == m["steps"]
+    assert curve["time_s"][-1] == pytest.approx(m["sim_time_s"])
+    assert curve["travel_m"][-1] == pytest.approx(m["travel_distance_m"])
+    assert curve["coverage"][-1] == pytest.approx(m["coverage"])
+    assert curve["entropy_nats"][-1] == pytest.approx(m["final_map_entropy_nats"])
+    assert np.all(np.diff(curve["travel_m"]) >= 0)

@@ -83,3 +83,77 @@ def test_explore_writes_every_result(tmp_path, method):
 def test_explore_rejects_a_blocked_start(tmp_path):
     result = runner.invoke(app, ["explore", "--start", "0.1", "0.1", "0", "--out", str(tmp_path)])
     assert result.exit_code == 2 and "not free" in result.output
+
+
+def room(tmp_path):
+    from PIL import Image
+
+    pixels = np.full((60, 100), 255, dtype=np.uint8)  # 5 m x 3 m at --size 5 3, walls around
+    pixels[:2], pixels[-2:], pixels[:, :2], pixels[:, -2:] = 0, 0, 0, 0
+    pixels[20:40, 50:54] = 0
+    (tmp_path / "maps").mkdir()
+    Image.fromarray(pixels).save(tmp_path / "maps" / "room.png")
+    return tmp_path / "maps" / "room.png"
+
+
+def test_campaign_writes_runs_tables_and_figures(tmp_path):
+    out = tmp_path / "c"
+    args = ["campaign", "--worlds", str(room(tmp_path)), "--size", "5", "3", "--methods", "gp,grid",
+            "--seeds", "1", "--poses", "truth", "--max-steps", "40", "--workers", "2", "--out", str(out)]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    assert "0 runs were done before, 2 finished now, 0 failed" in result.output
+    for method in ("gp", "grid"):
+        m = json.loads((out / "room.png" / method / "seed_0" / "metrics.json").read_text())
+        assert (m["method"], m["seed"], m["poses"]) == (method, 0, "truth") and m["steps"] <= 40
+    assert "## room.png" in (out / "table.md").read_text()
+    assert len((out / "table.csv").read_text().splitlines()) == 1 + 2 * 12
+    assert len(list((out / "figures").glob("room.png_*.png"))) == 3
+    again = runner.invoke(app, args)
+    assert again.exit_code == 0 and "2 runs were done before, 0 finished now" in again.output
+
+
+def test_campaign_rejects_bad_options_by_name(tmp_path):
+    for args, option in ((["--worlds", "atlantis"], "--world"), (["--engine", "spark"], "--engine"),
+                         (["--methods", "gp,gp"], "--methods"), (["--methods", "astar"], "--method"),
+                         (["--scheduler", "tcp://h:8786", "--workers", "2"], "--workers")):
+        result = runner.invoke(app, ["campaign", "--worlds", "office", *args, "--out", str(tmp_path)])
+        assert result.exit_code == 2, (args, result.output)
+        assert option in result.output, (args, result.output)
+
+
+def test_compare_is_a_one_world_campaign(tmp_path):
+    out = tmp_path / "c"
+    result = runner.invoke(app, ["compare", "--world", str(room(tmp_path)), "--size", "5", "3", "--seeds", "1",
+                                 "--methods", "grid", "--poses", "truth", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert json.loads((out / "room.png" / "grid" / "seed_0" / "metrics.json").read_text())["method"] == "grid"
+    assert "Travel distance (m)" in result.output and (out / "table.md").exists()
+
+
+@pytest.mark.slow
+def test_a_killed_campaign_resumes_without_redoing_finished_runs(tmp_path):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "c"
+    command = [sys.executable, "-m", "sim.cli", "campaign", "--worlds", str(room(tmp_path)), "--size", "5", "3",
+               "--methods", "grid", "--seeds", "4", "--poses", "truth", "--max-steps", "150", "--workers", "1",
+               "--out", str(out)]
+    metrics = [out / "room.png" / "grid" / f"seed_{k}" / "metrics.json" for k in range(4)]
+    first = subprocess.Popen(command, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 300
+    while not any(m.exists() for m in metrics) and first.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    os.killpg(first.pid, signal.SIGKILL)  # the campaign and its workers, mid-run
+    first.wait()
+    done = {m: m.stat().st_mtime_ns for m in metrics if m.exists()}
+    assert 1 <= len(done) < len(metrics)
+    again = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert f"{len(done)} runs were done before, {4 - len(done)} finished now, 0 failed" in again.stdout
+    assert all(m.exists() for m in metrics)
+    assert {m: m.stat().st_mtime_ns for m in done} == done
