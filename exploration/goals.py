@@ -22,7 +22,10 @@ class GoalConfig(BaseModel):
                             "left (20 points of 0.1 m: the 2 m the grid baseline's 10 cells of "
                             "0.2 m span)")
     points_per_cluster: int = Field(40, ge=1, description="k = ceil(n / points_per_cluster)")
-    alpha: float = Field(10.0, ge=0, description="weight of information against sqrt(distance)")
+    alpha: float = Field(3.0, ge=0, description="weight of information against sqrt(distance); "
+                         "the paper gives no value. n/N grows as frontiers run out, so a large α "
+                         "sends the robot across the map late in a run for the biggest remnant "
+                         "(Stage cave, 10 seeds: α 10 travelled 75.9 m, α 3 62.4 m)")
     reach: float = Field(0.6, gt=0, description="meters from a frontier point to a goal cell")
     blacklist_radius: float = Field(0.75, gt=0, description="meters around a failed goal")
 
