@@ -23,6 +23,13 @@ class CostmapConfig(BaseModel):
         "cells are kept at radius + margin. The COM leaves a band near walls unknown, so "
         "inflating unknown space by the full radius would close doors the robot fits through")
 
+    near_wall_cost: float = Field(
+        2.0, ge=0, description="extra cost per meter of path at radius + margin from an occupied "
+        "cell, falling linearly to 0 at preferred_clearance: paths keep off walls where there is "
+        "room (pure pursuit cuts corners, SLAM errs, and a cell hides where in it the wall is)")
+    preferred_clearance: float = Field(
+        0.6, gt=0, description="meters from an occupied cell beyond which a path costs its length")
+
     @model_validator(mode="after")
     def _ordered(self):
         if not self.free_below <= self.occupied_above:
@@ -41,14 +48,31 @@ def classify(prob: np.ndarray, config: CostmapConfig, prob_occ: np.ndarray | Non
 
 
 def passable(prob: np.ndarray, resolution: float, radius: float, config: CostmapConfig,
-             prob_occ: np.ndarray | None = None) -> np.ndarray:
-    """(h, w) bool: known-free cells more than ``radius + margin`` meters from any occupied cell
-    and more than ``unknown_clearance`` from any unknown one (off the map counts as unknown)."""
+             prob_occ: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Where the robot's centre may go, and what a meter of path costs there.
+
+    Returns:
+        ok: (h, w) bool, known-free cells more than ``radius + margin`` meters from any occupied
+            cell and more than ``unknown_clearance`` from any unknown one (off the map counts as
+            unknown).
+        cost: (h, w) ``wall_cost`` of each cell, for ``paths.distance_field``.
+    """
     free, occupied = classify(prob, config, prob_occ)
+    to_occupied = _distance_to(occupied, resolution)
+    ok = (free & (to_occupied > radius + config.margin)
+          & (_distance_to(~free & ~occupied, resolution) > config.unknown_clearance))
+    return ok, wall_cost(to_occupied, radius, config)
 
-    def distance_to(mask):
-        return ndimage.distance_transform_edt(np.pad(~mask, 1, constant_values=False),
-                                              sampling=resolution)[1:-1, 1:-1]
 
-    return (free & (distance_to(occupied) > radius + config.margin)
-            & (distance_to(~free & ~occupied) > config.unknown_clearance))
+def wall_cost(to_occupied: np.ndarray, radius: float, config: CostmapConfig) -> np.ndarray:
+    """(h, w) cost per meter: 1 + ``near_wall_cost`` at ``radius + margin`` meters from an
+    occupied cell, falling linearly to 1 at ``preferred_clearance``."""
+    closest = radius + config.margin
+    span = max(config.preferred_clearance - closest, 1e-9)
+    return 1.0 + config.near_wall_cost * np.clip((config.preferred_clearance - to_occupied) / span, 0, 1)
+
+
+def _distance_to(mask: np.ndarray, resolution: float) -> np.ndarray:
+    """(h, w) meters from each cell centre to the nearest cell of ``mask`` (off the map counts)."""
+    return ndimage.distance_transform_edt(np.pad(~mask, 1, constant_values=False),
+                                          sampling=resolution)[1:-1, 1:-1]

@@ -102,12 +102,12 @@ class Explorer:
         origin = np.asarray(origin, dtype=float)
         here = np.array([pose.x(), pose.y()])
         start = np.round((here - origin) / resolution).astype(int)
-        ok = passable(prob, resolution, c.robot_radius, c.costmap, prob_occ)
+        ok, cost = passable(prob, resolution, c.robot_radius, c.costmap, prob_occ)
         # the robot stands on free ground even where its sensor has not looked (behind it)
         h, w = prob.shape
         yy, xx = np.mgrid[0:h, 0:w]
         ok |= np.hypot(xx - start[0], yy - start[1]) * resolution <= c.robot_radius
-        dist, parent = distance_field(ok, np.clip(start, 0, [w - 1, h - 1]), resolution)
+        dist, parent = distance_field(ok, np.clip(start, 0, [w - 1, h - 1]), resolution, cost)
         reach = max(1, round(c.goals.reach / resolution))
         near = near_distance(dist, reach)
 

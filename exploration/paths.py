@@ -17,9 +17,10 @@ _STEPS = np.array([[1, 0], [-1, 0], [0, 1], [0, -1], [1, 1], [1, -1], [-1, 1], [
 
 
 @numba.njit(cache=True)
-def _dijkstra(passable, start_iy, start_ix, cell, steps, dist, parent):
+def _dijkstra(passable, cost, start_iy, start_ix, cell, steps, dist, length, parent):
     h, w = passable.shape
     dist[start_iy, start_ix] = 0.0
+    length[start_iy, start_ix] = 0.0
     heap = [(0.0, start_iy * w + start_ix)]
     while heap:
         d, flat = heapq.heappop(heap)
@@ -34,24 +35,30 @@ def _dijkstra(passable, start_iy, start_ix, cell, steps, dist, parent):
             # no corner cutting: a diagonal step needs both side cells free
             if diagonal and not (passable[iy, nx] and passable[ny, ix]):
                 continue
-            nd = d + (cell * math.sqrt(2.0) if diagonal else cell)
+            step = cell * math.sqrt(2.0) if diagonal else cell
+            nd = d + step * 0.5 * (cost[iy, ix] + cost[ny, nx])
             if nd < dist[ny, nx]:
                 dist[ny, nx] = nd
+                length[ny, nx] = length[iy, ix] + step
                 parent[ny, nx] = flat
                 heapq.heappush(heap, (nd, ny * w + nx))
 
 
-def distance_field(passable: np.ndarray, start: tuple[int, int], cell: float):
-    """Path lengths in meters from ``start`` = (ix, iy) over ``passable`` cells (8-connected).
+def distance_field(passable: np.ndarray, start: tuple[int, int], cell: float,
+                   cost: np.ndarray | None = None):
+    """Cheapest paths from ``start`` = (ix, iy) over ``passable`` cells (8-connected), and
+    their lengths: a step costs its length weighted by the mean ``cost`` of its two cells.
 
     Args:
         passable: (h, w) bool, cells the robot's centre may occupy.
         start: the robot's cell (ix, iy); it is always treated as passable.
         cell: cell size in meters.
+        cost: (h, w) weights >= 1 per meter (e.g. ``costmap.wall_cost``); None: all 1, the
+            shortest paths.
 
     Returns:
-        dist: (h, w) meters, inf where unreachable; parent: (h, w) flat index of the previous
-        cell on a shortest path (-1 at the start and unreachable cells).
+        dist: (h, w) meters along the cheapest path, inf where unreachable; parent: (h, w)
+        flat index of the previous cell on it (-1 at the start and unreachable cells).
     """
     passable = np.array(passable, dtype=bool)
     h, w = passable.shape
@@ -59,9 +66,12 @@ def distance_field(passable: np.ndarray, start: tuple[int, int], cell: float):
     if not (0 <= ix < w and 0 <= iy < h):
         raise ValueError(f"start cell ({ix}, {iy}) is outside the {w} x {h} grid")
     passable[iy, ix] = True
-    dist = np.full((h, w), np.inf)
+    cost = np.ones((h, w)) if cost is None else np.asarray(cost, dtype=float)
+    if cost.shape != (h, w):
+        raise ValueError(f"cost {cost.shape} and passable {(h, w)} must be grids of the same shape")
+    total, dist = np.full((h, w), np.inf), np.full((h, w), np.inf)
     parent = np.full((h, w), -1, dtype=np.int64)
-    _dijkstra(passable, iy, ix, float(cell), _STEPS, dist, parent)
+    _dijkstra(passable, cost, iy, ix, float(cell), _STEPS, total, dist, parent)
     return dist, parent
 
 

@@ -19,7 +19,7 @@ def room(n=100):
 def test_planner_never_enters_occupied_or_unknown_space():
     prob = room()
     config = CostmapConfig()
-    ok = passable(prob, 0.1, 0.25, config)
+    ok, _ = passable(prob, 0.1, 0.25, config)
     free, occupied = classify(prob, config)
     dist, parent = distance_field(ok, (30, 50), 0.1)
     path = path_to(parent, (70, 50))
@@ -35,7 +35,7 @@ def test_door_narrower_than_the_robot_blocks_the_path():
     prob = room()
     prob[45:55, 50] = 0.9
     prob[49:51, 50] = 0.1  # a 0.2 m door
-    ok = passable(prob, 0.1, 0.25, CostmapConfig())
+    ok, _ = passable(prob, 0.1, 0.25, CostmapConfig())
     dist, _ = distance_field(ok, (30, 50), 0.1)
     assert np.isinf(dist[50, 70])
 
@@ -60,7 +60,7 @@ def test_grid_frontiers_and_nearest():
     # frontier cells are free and touch unknown space: the room's outline minus walls
     assert set(np.unique(cells[:, 0])) >= {20, 79}
     assert all(prob[iy, ix] < 0.35 for ix, iy in cells)
-    ok = passable(prob, 0.1, 0.25, CostmapConfig())
+    ok, _ = passable(prob, 0.1, 0.25, CostmapConfig())
     dist, _ = distance_field(ok, (30, 50), 0.1)
     k, cell = nearest_frontier(regions, near_distance(dist, 6))
     assert cell[0] == 20  # the left edge is nearest to a robot at x = 3 m
