@@ -1,6 +1,9 @@
+import math
+
 import numpy as np
 import pytest
 from pydantic import ValidationError
+from scipy import ndimage
 
 from exploration.costmap import CostmapConfig, classify, passable
 from exploration.grid_frontier import grid_frontiers, nearest_frontier
@@ -68,3 +71,33 @@ def test_grid_frontiers_and_nearest():
     speck = np.full((30, 30), 0.1)
     speck[15, 15] = 0.5
     assert grid_frontiers(speck, CostmapConfig(), min_size=10) == []
+
+
+def test_paths_keep_off_walls_where_there_is_room_and_still_pass_a_door():
+    """A 3 m tall hall split at x = 5 m by a wall with a 0.8 m door low in it: from the middle
+    of the left half to the middle of the right half, the path keeps the preferred clearance
+    from every wall except in the doorway, while the shortest path cuts closer to the door
+    jambs; ``dist`` is the length of the path taken, not its cost."""
+    res = 0.1
+    prob = np.full((40, 100), 0.1)
+    prob[:5], prob[35:], prob[:, :5], prob[:, 95:] = 0.9, 0.9, 0.9, 0.9   # walls: y in [0.5, 3.5)
+    prob[:, 50] = 0.9
+    prob[6:14, 50] = 0.1                                                 # door: y in [0.6, 1.4)
+    config = CostmapConfig()
+    ok, cost = passable(prob, res, 0.25, config)
+    assert cost.min() == 1.0 and cost.max() == pytest.approx(1.0 + config.near_wall_cost)
+    start, goal = (20, 20), (80, 20)
+    dist, parent = distance_field(ok, start, res, cost)
+    path = path_to(parent, goal)
+    assert (path[:, 0] == 50).any()                                      # through the door
+    steps = np.abs(np.diff(path, axis=0)).sum(axis=1)
+    assert dist[goal[1], goal[0]] == pytest.approx(res * np.sum(np.where(steps == 2, math.sqrt(2), 1.0)))
+    _, occupied = classify(prob, config)
+    to_wall = ndimage.distance_transform_edt(~occupied, sampling=res)
+    clearance = to_wall[path[:, 1], path[:, 0]]
+    outside_door = np.abs(path[:, 0] - 50) > 4
+    assert clearance[outside_door].min() >= config.preferred_clearance - 1e-9
+    shortest, parent = distance_field(ok, start, res)
+    hug = path_to(parent, goal)
+    assert to_wall[hug[:, 1], hug[:, 0]][np.abs(hug[:, 0] - 50) > 4].min() < config.preferred_clearance - 0.05
+    assert shortest[goal[1], goal[0]] < dist[goal[1], goal[0]]
