@@ -102,6 +102,25 @@ def finished(run: Run) -> bool:
     return (Path(run.folder) / "metrics.json").exists()
 
 
+def check_resumable(runs: list[Run]) -> None:
+    """Raise ValueError when a finished run's folder holds another run: a different
+    configuration, world start or seed than ``runs`` asks for (mixing them would make a table
+    of different experiments)."""
+    from sim.config_file import CONFIG_NAME, read_config
+
+    for run in filter(finished, runs):
+        folder = Path(run.folder)
+        metrics = json.loads((folder / "metrics.json").read_text())
+        asked = EpisodeConfig.model_validate(run.config)
+        found = read_config(folder / CONFIG_NAME) if (folder / CONFIG_NAME).exists() else None
+        if found != asked:
+            raise ValueError(f"{folder} holds a run with another configuration: give another output "
+                             "directory, or delete the folder to run it again")
+        if metrics["seed"] != run.seed or not np.allclose(metrics["start"], run.world.start):
+            raise ValueError(f"{folder} holds a run from seed {metrics['seed']} and start "
+                             f"{metrics['start']}: give another output directory, or delete the folder")
+
+
 def failed(run: Run) -> bool:
     return not finished(run) and (Path(run.folder) / "error.json").exists()
 

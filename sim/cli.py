@@ -432,13 +432,18 @@ def _run_and_report(worlds, configs, seeds: int, out: Path, engine: str, workers
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
     from rich.table import Table
 
-    from sim.campaign import cell, finished, plan, run_campaign, write_figures, write_tables
+    from sim.campaign import (cell, check_resumable, finished, plan, run_campaign, write_figures,
+                              write_tables)
     from sim.engines import make_engine
 
     try:
         runs = plan(out, worlds, configs, list(range(seeds)))
     except ValueError as err:
         raise typer.BadParameter(str(err), param_hint="--worlds") from None
+    try:
+        check_resumable(runs)
+    except ValueError as err:
+        raise typer.BadParameter(str(err), param_hint="--out") from None
     try:
         pool = make_engine(engine, workers, scheduler)
     except (ValueError, ImportError) as err:
@@ -490,9 +495,9 @@ def campaign(
     workers: Optional[int] = typer.Option(None, min=1, help="worker processes (default: the CPU count)"),
     size: Optional[tuple[float, float]] = typer.Option(None, help="size of the bitmap worlds, m: --size W H"),
     resolution: Optional[float] = typer.Option(None, help="resolution of the bitmap worlds, m/pixel"),
-    poses: str = typer.Option("slam", help="slam or truth"),
-    max_steps: Optional[int] = typer.Option(None, help="scans before a run stops"),
-    config: Optional[Path] = typer.Option(None, help="run configuration (YAML, EpisodeConfig)"),
+    poses: Optional[str] = typer.Option(None, help="slam or truth; default: stack.poses, slam"),
+    max_steps: Optional[int] = typer.Option(None, help="scans before a run stops; default: max_steps"),
+    config: Optional[Path] = typer.Option(None, help="configuration (TOML, see `gpexplore config dump`)"),
     out: Path = typer.Option(Path("results/campaign"), help="output directory (runs resume from it)"),
 ):
     """Run every (world, method, seed) in parallel; each run lands in its folder as it finishes, so

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from sim.campaign import (WorldSpec, execute, plan, results, run_campaign, table, termination_counts,
-                          write_figures, write_tables)
+from sim.campaign import (WorldSpec, check_resumable, execute, plan, results, run_campaign, table,
+                          termination_counts, write_figures, write_tables)
 from sim.engines import DaskEngine, LocalEngine
 from sim.episode import EpisodeConfig
 from sim.results import CURVE_COLUMNS, read_curve
@@ -166,3 +166,16 @@ def test_curve_file_holds_the_runs_samples(tmp_path, room):
     assert curve["coverage"][-1] == pytest.approx(m["coverage"])
     assert curve["entropy_nats"][-1] == pytest.approx(m["final_map_entropy_nats"])
     assert np.all(np.diff(curve["travel_m"]) >= 0)
+
+
+def test_a_folder_from_another_experiment_is_not_resumed(tmp_path, room):
+    """A finished run counts for a resumed campaign only if it ran the same configuration,
+    start and seed: a table must not mix experiments."""
+    runs = plan(tmp_path, [room], configs(), [0])
+    execute(runs[0])
+    check_resumable(runs)                                   # the same campaign: fine
+    with pytest.raises(ValueError, match="another configuration"):
+        check_resumable(plan(tmp_path, [room], configs(max_steps=60), [0]))
+    moved = WorldSpec(room.spec, (1.0, 0.8, 0.5), size=room.size)
+    with pytest.raises(ValueError, match="start"):
+        check_resumable(plan(tmp_path, [moved], configs(), [0]))
