@@ -233,7 +233,9 @@ def write_tables(out: str | Path, runs: list[Run]) -> dict[str, list[dict]]:
                              _csv_number(row[m]["stderr"]), row[m]["n"]] for m in methods)
         finished_runs = ", ".join(f"{m} {len(by_method[m])}/{planned[world, m]}"
                                   + (f" ({lost[world, m]} failed)" if lost[world, m] else "") for m in methods)
-        md += ["", f"Runs finished: {finished_runs}. Ended: {termination_counts(by_method)}.", ""]
+        ended = "; ".join(f"{m}: " + ", ".join(f"{reason} {n}" for reason, n in reasons.items())
+                          for m, reasons in termination_counts(by_method).items() if reasons)
+        md += ["", f"Runs finished: {finished_runs}. Ended: {ended or 'none yet'}.", ""]
     write_text_atomic(out / "table.md", "# Table I: mean ± standard error over seeds\n\n" + "\n".join(md))
     write_text_atomic(out / "table.csv", text.getvalue())
     return rows_by_world
