@@ -28,6 +28,7 @@ from pathlib import Path
 import gtsam
 import numpy as np
 
+from slam.laser_log import LaserLog
 from slam.scan import LaserScan, fov_angles
 
 #: Readings at or beyond this are "no return" in CARMEN logs (they hold 81.83 or 81.91).
@@ -55,7 +56,7 @@ class LaserRecord:
     odometry: gtsam.Pose2
 
 
-class CarmenLog:
+class CarmenLog(LaserLog):
     """The laser messages of a CARMEN log, in file order: ``len(log)``, ``log[i]``, iteration.
 
     Args:
@@ -80,20 +81,6 @@ class CarmenLog:
         self._read(skip_malformed)
         if not self.records:
             raise LogFormatError(f"{self.path}: no laser messages (FLASER or ROBOTLASER1) found")
-
-    def __len__(self) -> int:
-        return len(self.records)
-
-    def __getitem__(self, i: int) -> LaserRecord:
-        return self.records[i]
-
-    def __iter__(self):
-        return iter(self.records)
-
-    @property
-    def duration(self) -> float:
-        """Seconds between the first and last scan."""
-        return self.records[-1].scan.timestamp - self.records[0].scan.timestamp
 
     def _read(self, skip_malformed: bool) -> None:
         opener = gzip.open if self.path.suffix == ".gz" else open

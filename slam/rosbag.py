@@ -26,6 +26,7 @@ import gtsam
 import numpy as np
 
 from slam.carmen import DEFAULT_MAX_RANGE
+from slam.laser_log import LaserLog
 from slam.scan import LaserScan
 
 LASER_SCAN = "sensor_msgs/msg/LaserScan"
@@ -63,7 +64,7 @@ class BagRecord:
     odometry: gtsam.Pose2
 
 
-class RosBag:
+class RosBag(LaserLog):
     """The LaserScan messages of a ROS bag with odometry, in stamp order: ``len(bag)``, ``bag[i]``,
     iteration.
 
@@ -99,20 +100,6 @@ class RosBag:
                 self.records = self._scans(reader, stamps, poses)
         except (AnyReaderError, OSError) as err:
             raise BagError(f"{self.path}: cannot read bag: {err}") from None
-
-    def __len__(self) -> int:
-        return len(self.records)
-
-    def __getitem__(self, i: int) -> BagRecord:
-        return self.records[i]
-
-    def __iter__(self):
-        return iter(self.records)
-
-    @property
-    def duration(self) -> float:
-        """Seconds between the first and last scan."""
-        return self.records[-1].scan.timestamp - self.records[0].scan.timestamp
 
     def _topic(self, reader, msgtype: str, wanted: str | None, option: str) -> str:
         """The topic of ``msgtype`` to read: ``wanted``, the only one, or the preferred name."""
