@@ -24,9 +24,9 @@ class CostmapConfig(BaseModel):
         "inflating unknown space by the full radius would close doors the robot fits through")
 
     near_wall_cost: float = Field(
-        2.0, ge=0, description="extra cost per meter of path at radius + margin from an occupied "
-        "cell, falling linearly to 0 at preferred_clearance: paths keep off walls where there is "
-        "room (pure pursuit cuts corners, SLAM errs, and a cell hides where in it the wall is)")
+        0.0, ge=0, description="extra cost per meter of path at radius + margin from an occupied "
+        "cell, falling linearly to 0 at preferred_clearance, so paths keep off walls where there "
+        "is room")
     preferred_clearance: float = Field(
         0.6, gt=0, description="meters from an occupied cell beyond which a path costs its length")
 

@@ -83,7 +83,7 @@ def test_paths_keep_off_walls_where_there_is_room_and_still_pass_a_door():
     prob[:5], prob[35:], prob[:, :5], prob[:, 95:] = 0.9, 0.9, 0.9, 0.9   # walls: y in [0.5, 3.5)
     prob[:, 50] = 0.9
     prob[6:14, 50] = 0.1                                                 # door: y in [0.6, 1.4)
-    config = CostmapConfig()
+    config = CostmapConfig(near_wall_cost=2.0)
     ok, cost = passable(prob, res, 0.25, config)
     assert cost.min() == 1.0 and cost.max() == pytest.approx(1.0 + config.near_wall_cost)
     start, goal = (20, 20), (80, 20)
