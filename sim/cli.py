@@ -251,11 +251,6 @@ def _replay_summary(metrics: dict) -> str:
             f"loop closures in {metrics['wall_time_s']:.1f} s ({metrics['real_time_factor']:.1f}x real time)")
 
 
-def _slam_config(path: Optional[Path]):
-    """The [stack.slam] section of the configuration file ``path`` (defaults without one)."""
-    return _episode_config(path).stack.slam
-
-
 @app.command()
 def posegraph(
     graph: Path = typer.Argument(..., help="2-D g2o pose graph (VERTEX_SE2 / EDGE_SE2)"),
@@ -541,7 +536,7 @@ def config_dump(
                                           "completed with the defaults, instead of the defaults"),
 ):
     """Write the full configuration as TOML: every section and setting, each described; edit it
-    and pass it to explore, compare, replay or map with --config."""
+    and pass it to explore, compare, campaign, replay or map with --config."""
     from sim.config_file import dumps_config, write_config
 
     cfg = _episode_config(config)

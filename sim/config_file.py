@@ -31,7 +31,7 @@ CONFIG_NAME = "config.toml"
 
 _HEADER = """\
 # gpexplore configuration: every section, with its defaults unless changed.
-# Read by `--config FILE` of explore, compare, replay and map (replay and map use the
+# Read by `--config FILE` of explore, compare, campaign, replay and map (replay and map use the
 # [stack.slam] and [stack.com] sections). Keys left out keep their defaults; TOML has no
 # null, so a setting that is None is left out.
 """

@@ -14,12 +14,9 @@ from slam.atomic import write_json_atomic
 from slam.carmen import CarmenLog, write_corrected_log
 from slam.config import SlamConfig
 from slam.evaluation import read_relations, relation_error
+from slam.laser_log import LaserLog
 from slam.pose_slam import PoseSlam
-from slam.rosbag import RosBag
 from slam.tum import write_tum
-
-#: The laser records of a log: ``len``, indexing, iteration; each with ``.scan``, ``.pose``, ``.odometry``.
-ScanLog = CarmenLog | RosBag
 
 
 @dataclass
@@ -32,7 +29,7 @@ class ReplayResult:
     wall_time: float
 
 
-def replay(log: ScanLog, config: SlamConfig | None = None, progress: bool = False) -> ReplayResult:
+def replay(log: LaserLog, config: SlamConfig | None = None, progress: bool = False) -> ReplayResult:
     """Run Pose SLAM over every laser record, with the log's raw odometry as the prediction."""
     slam = PoseSlam(config)
     tic = time.perf_counter()
@@ -42,7 +39,7 @@ def replay(log: ScanLog, config: SlamConfig | None = None, progress: bool = Fals
     return ReplayResult(slam, np.array(slam.scan_stamps), slam.trajectory(), wall)
 
 
-def write_replay(out: str | Path, log: ScanLog, result: ReplayResult,
+def write_replay(out: str | Path, log: LaserLog, result: ReplayResult,
                  relations: str | Path | None = None, figure: bool = True) -> dict:
     """Write trajectory.tum, graph.g2o, metrics.json (and trajectory.png) to ``out``, and for a
     CARMEN log corrected.clf (a bag has no CARMEN lines to correct: trajectory.tum holds its poses);
@@ -69,7 +66,7 @@ def write_trajectory_and_graph(out: str | Path, result: ReplayResult) -> None:
     result.slam.write_g2o(out / "graph.g2o")
 
 
-def replay_metrics(log: ScanLog, result: ReplayResult) -> dict:
+def replay_metrics(log: LaserLog, result: ReplayResult) -> dict:
     """What the replay did: scans, keyframes, loop closures (verified, rejected), wall time (s)."""
     slam = result.slam
     if isinstance(log, CarmenLog):
