@@ -93,16 +93,12 @@ class FrameRecorder:
         h, w = coded.shape
         size = stride * stack.map_resolution
         x0, _, y0, _ = stack.map.frame.extent
-        loops = np.zeros((0, 2, 2), np.float32)
-        if stack.slam is not None and stack.slam.loops:
-            xy = np.array([[p.x(), p.y()] for p in stack.keyframe_poses()])
-            ends = np.array([[loop.candidate.j, loop.candidate.k] for loop in stack.slam.loops])
-            loops = xy[ends].astype(np.float32)
         plan = stack.plan
         return Frame(step, coded, (x0, x0 + w * size, y0, y0 + h * size),
                      np.array([pose.x(), pose.y(), pose.theta()]),
                      None if plan.goal is None else np.array(plan.goal, dtype=float),
-                     plan.path.astype(np.float32), self._frontier, self._labels, loops)
+                     plan.path.astype(np.float32), self._frontier, self._labels,
+                     stack.loop_segments().astype(np.float32))
 
 
 def write_animation(folder: str | Path, result, fps: int = FPS) -> list[Path]:

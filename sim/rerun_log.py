@@ -68,10 +68,7 @@ class RerunLog:
                 rec.log("world/goal", rr.Points2D([plan.goal], radii=0.2, colors=[255, 0, 255]))
                 rec.log("world/goal/path", rr.LineStrips2D([plan.path], colors=[255, 0, 255]))
         if out.loops:
-            xy = np.array([[p.x(), p.y()] for p in stack.keyframe_poses()])
-            rec.log("world/loops", rr.LineStrips2D(
-                [xy[[loop.candidate.j, loop.candidate.k]] for loop in stack.slam.loops],
-                colors=[0, 255, 0]))
+            rec.log("world/loops", rr.LineStrips2D(list(stack.loop_segments()), colors=[0, 255, 0]))
 
     def close(self) -> None:
         """Log the whole trajectories and write everything to the file."""

@@ -44,10 +44,7 @@ def write_episode(out: str | Path, result: EpisodeResult) -> None:
 def _figures(folder: Path, result: EpisodeResult, prob: np.ndarray) -> None:
     stack = result.stack
     m = result.metrics
-    loops = []
-    if stack.slam is not None:
-        xy = np.array([[p.x(), p.y()] for p in stack.keyframe_poses()])
-        loops = [(xy[loop.candidate.j], xy[loop.candidate.k]) for loop in stack.slam.loops]
+    loops = stack.loop_segments()
     title = (f"{m['world']} ({m['method']}): {m['travel_distance_m']:.0f} m, coverage "
              f"{100 * m['coverage']:.1f} %, {m['termination_reason']}")
     map_figure(folder / "map_trajectory.png", prob, stack.map.frame.extent, result.estimate,

@@ -140,6 +140,14 @@ class Stack:
     def keyframe_poses(self) -> list[gtsam.Pose2]:
         return self.slam.keyframe_poses() if self.slam is not None else self._truth_keyframes.poses
 
+    def loop_segments(self) -> np.ndarray:
+        """(m, 2, 2) the loop closures as segments between their keyframes' current estimates
+        (none without SLAM)."""
+        if self.slam is None or not self.slam.loops:
+            return np.zeros((0, 2, 2))
+        xy = np.array([[p.x(), p.y()] for p in self.keyframe_poses()])
+        return xy[[[loop.candidate.j, loop.candidate.k] for loop in self.slam.loops]]
+
     def keyframe_scans(self) -> list[LaserScan]:
         return self.slam.keyframe_scans if self.slam is not None else self._truth_keyframes.scans
 
