@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.figures import _save, plt
+from sim.figures import plt, save_figure
 
 
 def travel_figure(path: str | Path, runs: dict[str, list[dict]], world: str) -> None:
@@ -27,7 +27,7 @@ def travel_figure(path: str | Path, runs: dict[str, list[dict]], world: str) -> 
         ax.plot(k + rng.uniform(-0.12, 0.12, len(values)), values, "o", ms=5, alpha=0.7, color=f"C{k - 1}")
     ax.set(ylabel="travel distance (m)", title=f"{world}: travel distance per run")
     ax.grid(alpha=0.3, axis="y")
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def band(curves: list[dict[str, np.ndarray]], x: str, y: str, n: int = 200):
@@ -55,7 +55,7 @@ def coverage_figure(path: str | Path, curves: dict[str, list], world: str) -> No
     _plot_bands(by_time, curves, "time_s", "coverage", 100.0)
     by_travel.set(xlabel="travel distance (m)", ylabel="coverage (%)", title=f"{world}: coverage over travel")
     by_time.set(xlabel="robot time (s)", title=f"{world}: coverage over time")
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def entropy_band_figure(path: str | Path, curves: dict[str, list], world: str) -> None:
@@ -64,4 +64,4 @@ def entropy_band_figure(path: str | Path, curves: dict[str, list], world: str) -
     fig, ax = plt.subplots(figsize=(7, 4))
     _plot_bands(ax, curves, "step", "entropy_nats")
     ax.set(xlabel="step", ylabel="map entropy (nats)", title=f"{world}: map entropy, mean ± s.d. over runs")
-    _save(fig, path)
+    save_figure(fig, path)

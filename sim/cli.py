@@ -54,12 +54,11 @@ def world(
     if out:
         import matplotlib.pyplot as plt
 
-        from sim.figures import plot_world
+        from sim.figures import plot_world, save_figure
 
         fig, ax = plt.subplots(figsize=(8, 8 * height / width + 0.5))
         plot_world(ax, w)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(out, dpi=120, bbox_inches="tight")
+        save_figure(fig, out, dpi=120)
         console.print(f"figure: {out}")
 
 

@@ -45,16 +45,14 @@ def tour_figure(path: str | Path, world: World, log: TourLog, every: int = 10) -
     ax.plot(*truth[0], "o", color="tab:green", label="start")
     ax.legend(loc="upper right", fontsize=8)
     ax.set_title(f"{world.name}: {len(log.scans)} scans")
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120, bbox_inches="tight")
-    plt.close(fig)
+    save_figure(fig, path, dpi=120)
 
 
-def _save(fig, path: str | Path) -> None:
+def save_figure(fig, path: str | Path, dpi: int = 110) -> None:
+    """Write ``fig`` to ``path`` (creating its folder) and close it."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110, bbox_inches="tight")
+    fig.savefig(path, dpi=dpi, bbox_inches="tight")
     plt.close(fig)
 
 
@@ -73,7 +71,7 @@ def map_figure(path: str | Path, prob: np.ndarray, extent, estimate, truth, loop
     ax.set(title=title, xlabel="x (m)", ylabel="y (m)", aspect="equal")
     ax.legend(loc="upper right", fontsize=8)
     fig.colorbar(im, ax=ax, shrink=0.7, label="occupancy probability")
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def frontier_figure(path: str | Path, snapshots) -> None:
@@ -95,7 +93,7 @@ def frontier_figure(path: str | Path, snapshots) -> None:
         ax.plot(snap.pose.x(), snap.pose.y(), "^", color="red", ms=8)
         ax.set(title=f"step {snap.step}", aspect="equal", xlabel="x (m)")
     axes[0, 0].set_ylabel("y (m)")
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def entropy_figure(path: str | Path, curves: dict) -> None:
@@ -107,4 +105,4 @@ def entropy_figure(path: str | Path, curves: dict) -> None:
     ax.set(xlabel="step", ylabel="map entropy (nats)", title="map entropy")
     ax.grid(alpha=0.3)
     ax.legend()
-    _save(fig, path)
+    save_figure(fig, path)
