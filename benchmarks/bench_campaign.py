@@ -37,10 +37,7 @@ def main() -> None:
     parser.add_argument("--poses", default="slam", choices=["slam", "truth"])
     args = parser.parse_args()
     single_threaded_workers()  # the serial runs get the same one thread as each worker
-    base = EpisodeConfig()
-    config = base.model_validate({**base.model_dump(), "max_steps": args.max_steps, "stack": {
-        **base.stack.model_dump(), "poses": args.poses,
-        "explorer": {**base.stack.explorer.model_dump(), "method": args.method}}})
+    config = EpisodeConfig().overridden(args.method, args.poses, args.max_steps)
     start = BUILTIN_WORLDS[args.world]().start
     world = WorldSpec(args.world, (start.x(), start.y(), start.theta()))
     seeds = list(range(args.runs))

@@ -22,7 +22,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from sim.campaign import WorldSpec, plan, results, run_campaign, table, termination_counts  # noqa: E402
+from sim.campaign import WorldSpec, cell, plan, results, run_campaign, table, termination_counts  # noqa: E402
 from sim.data import shared_data_dir  # noqa: E402
 from sim.engines import LocalEngine  # noqa: E402
 from sim.episode import EpisodeConfig  # noqa: E402
@@ -49,8 +49,7 @@ def main() -> None:
     if os.environ.get("OPENBLAS_NUM_THREADS") != "1":
         print("warning: set OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 (threaded BLAS is slower here)")
     base = EpisodeConfig()
-    configs = {m: base.model_copy(update={"stack": base.stack.model_copy(update={
-        "explorer": base.stack.explorer.model_copy(update={"method": m})})}) for m in ("gp", "grid")}
+    configs = {m: base.overridden(method=m) for m in ("gp", "grid")}
     world = world_spec(args.world, base.robot.radius)
     out = args.out or Path(tempfile.mkdtemp(prefix="bench_explore_"))
 
@@ -68,8 +67,7 @@ def main() -> None:
     by_method = results(runs)[world.name]
     print(f"\n{world.name}: {args.seeds} seeds, Pose SLAM in the loop (runs in {out})")
     for row in table(by_method):
-        cells = [f"{row[m]['mean']:.4g} ± {row[m]['stderr']:.2g} (n={row[m]['n']})"
-                 if row[m]["mean"] is not None else "—" for m in configs]
+        cells = [cell(row[m], args.seeds) for m in configs]
         print(f"{row['metric']:<32}" + "".join(f"{c:>28}" for c in cells))
     print(f"ended: {termination_counts(by_method)}")
     gp_wall = sum(m["wall_time_s"] for m in by_method["gp"])

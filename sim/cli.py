@@ -387,15 +387,8 @@ def _config_for(cfg, method: Optional[str], poses: Optional[str], max_steps: Opt
 
     from sim.config_file import validation_message
 
-    data = cfg.model_dump()
-    if method is not None:
-        data["stack"]["explorer"]["method"] = method
-    if poses is not None:
-        data["stack"]["poses"] = poses
-    if max_steps is not None:
-        data["max_steps"] = max_steps
     try:
-        return cfg.model_validate(data)
+        return cfg.overridden(method, poses, max_steps)
     except ValidationError as err:
         raise typer.BadParameter(validation_message(err, type(cfg)),
                                  param_hint="--method/--poses/--max-steps") from None

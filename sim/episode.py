@@ -60,6 +60,19 @@ class EpisodeConfig(BaseModel):
     animate_every: int = Field(0, ge=0, description="steps between the animation's frames "
                                "(0: no animation)")
 
+    def overridden(self, method: str | None = None, poses: str | None = None,
+                   max_steps: int | None = None) -> EpisodeConfig:
+        """This configuration with the explorer's method, the pose source and the step budget
+        replaced where given (None keeps this one's), validated again."""
+        data = self.model_dump()
+        if method is not None:
+            data["stack"]["explorer"]["method"] = method
+        if poses is not None:
+            data["stack"]["poses"] = poses
+        if max_steps is not None:
+            data["max_steps"] = max_steps
+        return self.model_validate(data)
+
     @model_validator(mode="after")
     def _planner_fits_the_robot(self):
         if self.stack.explorer.robot_radius < self.robot.radius:

@@ -58,11 +58,8 @@ def pool():
 
 
 def configs(max_steps=50):
-    base = EpisodeConfig()
-    return {m: base.model_validate({**base.model_dump(), "max_steps": max_steps, "metrics_every": 10,
-                                    "stack": {**base.stack.model_dump(), "poses": "truth",
-                                              "explorer": {**base.stack.explorer.model_dump(), "method": m}}})
-            for m in ("gp", "grid")}
+    base = EpisodeConfig(metrics_every=10)
+    return {m: base.overridden(m, "truth", max_steps) for m in ("gp", "grid")}
 
 
 def without_wall(m):
