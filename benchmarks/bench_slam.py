@@ -21,7 +21,7 @@ from sim.data import shared_data_dir  # noqa: E402
 from slam.carmen import CarmenLog  # noqa: E402
 from slam.config import SlamConfig  # noqa: E402
 from slam.evaluation import read_relations, relation_error  # noqa: E402
-from slam.replay import replay  # noqa: E402
+from sim.logs import replay_log  # noqa: E402
 
 
 def line(name: str, summary: dict) -> str:
@@ -52,12 +52,12 @@ def main() -> None:
 
     no_loops = SlamConfig()
     no_loops.loop_closure.enabled = False
-    front = replay(log, no_loops)
+    front = replay_log(log, no_loops)
     print(line("front end, no loops", relation_error(relations, front.stamps, front.trajectory, odometry).summary()))
 
     walls = []
     for _ in range(args.repeat):
-        full = replay(log)
+        full = replay_log(log)
         walls.append(full.wall_time)
     print(line("Pose SLAM", relation_error(relations, full.stamps, full.trajectory, odometry).summary()))
     slam = full.slam

@@ -1,9 +1,10 @@
-"""Where to go next: the C-frontier explorer (the paper's method) and the nearest-frontier baseline.
+"""Where to go next: goal choice and goal keeping, shared by the C-frontier explorer (the
+paper's method) and the nearest-frontier baseline.
 
-Both see the map as a snapshot (probability grids, origin, resolution) and the robot's pose,
-and both keep their goal until its frontier is gone or its path is blocked: re-selecting at
-every update makes the goal switch dozens of times a run. A goal the robot cannot reach is
-blacklisted, with a radius, rather than retried forever.
+Both read the map as a snapshot and the robot's pose, and differ only in how they find frontiers
+and rank them (``frontier_methods.py``). Both keep their goal until its frontier is gone or its
+path is blocked: re-selecting at every update makes the goal switch dozens of times a run. A goal
+the robot cannot reach is blacklisted, with a radius, rather than retried forever.
 """
 
 from __future__ import annotations
@@ -16,10 +17,10 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from exploration.costmap import CostmapConfig, passable
-from exploration.frontier import frontier_map
-from exploration.goals import Blacklist, FrontierCluster, GoalConfig, extract_goals
-from exploration.grid_frontier import grid_frontiers, nearest_frontier
-from exploration.paths import best_cell_near, distance_field, near_distance, path_to
+from exploration.frontier_methods import CFrontier, Frontier, GridFrontier, Reachable
+from exploration.goals import Blacklist, FrontierCluster, GoalConfig
+from exploration.paths import distance_field, near_distance, path_to
+from mapping.occupancy import MapSnapshot
 
 
 class ExplorerConfig(BaseModel):
@@ -45,19 +46,23 @@ class ExplorerConfig(BaseModel):
                                      "robot is one it cannot observe better: blacklisted")
 
 
+Done = Literal["frontiers_exhausted", "no_reachable_goal"]
+
+
 @dataclass
 class Plan:
     """The explorer's answer for one map snapshot.
 
     ``goal`` (2,) and ``path`` (k, 2) are in meters; ``goal`` is None when exploration is
     over, and ``done`` then says why: ``frontiers_exhausted`` (no significant frontier left)
-    or ``no_reachable_goal`` (frontiers remain, none reachable). ``frontier`` is the map the
-    goal came from: the C-frontier map F (gp), or 1 on the grid's frontier cells (grid).
+    or ``no_reachable_goal`` (frontiers remain, none reachable). ``clusters`` are the ranked
+    frontier clusters of a new goal choice (empty when the goal was kept); ``frontier`` is the
+    map the goal came from: the C-frontier map F (gp), or 1 on the grid's frontier cells (grid).
     """
 
     goal: np.ndarray | None
     path: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
-    done: str | None = None
+    done: Done | None = None
     new_goal: bool = False
     clusters: list[FrontierCluster] = field(default_factory=list)
     frontier: np.ndarray | None = None
@@ -73,7 +78,9 @@ class Explorer:
 
     def __init__(self, config: ExplorerConfig | None = None, seed: int = 0):
         self.config = config or ExplorerConfig()
-        self.blacklist = Blacklist(self.config.goals.blacklist_radius)
+        c = self.config
+        self.method = CFrontier(c) if c.method == "gp" else GridFrontier(c)
+        self.blacklist = Blacklist(c.goals.blacklist_radius)
         self.goal: np.ndarray | None = None
         self.target: np.ndarray = np.zeros((0, 2))  # the frontier points the goal serves
         self.goals_chosen = 0
@@ -93,102 +100,57 @@ class Explorer:
                     self.blacklist.add(p)
         self.goal = None
 
-    def plan(self, prob: np.ndarray, prob_occ: np.ndarray | None, origin, resolution: float,
-             pose: gtsam.Pose2) -> Plan:
-        """A goal and a path for the robot at ``pose`` on this map snapshot.
+    def plan(self, snapshot: MapSnapshot, pose: gtsam.Pose2) -> Plan:
+        """A goal and a path for the robot at ``pose`` on this map snapshot: keep the goal while
+        its frontier remains and its path is open, else choose the best frontier cluster."""
+        reachable = self._reachable(snapshot, pose)
+        frontier = self.method.frontier(snapshot)
+        if self.goal is not None and self._goal_still_valid(frontier, reachable):
+            return Plan(self.goal, reachable.path(self.goal), frontier=frontier.values)
+        return self._choose(frontier, reachable)
 
-        Args:
-            prob: (h, w) occupancy probability (Λ, or the log-odds grid's).
-            prob_occ: (h, w) Λo for the C-frontier method (None for the grid method).
-            origin: (x, y) of the centre of cell (0, 0), meters.
-            resolution: cell size, meters.
-            pose: the robot's estimated pose.
-        """
+    def _choose(self, frontier: Frontier, reachable: Reachable) -> Plan:
+        """The best reachable cluster's goal; a goal where the robot already stands is a frontier
+        it cannot see from anywhere reachable (e.g. behind a wall gap narrower than the robot):
+        blacklist it and choose again."""
+        self.goal = None
+        while True:
+            clusters = self.method.clusters(frontier, reachable, self.blacklist, self._rng)
+            if not clusters:
+                return Plan(None, done="frontiers_exhausted", frontier=frontier.values)
+            best = next((k for k in clusters if k.goal is not None), None)
+            if best is None:
+                return Plan(None, done="no_reachable_goal", clusters=clusters, frontier=frontier.values)
+            self.goal, self.target = best.goal, best.points
+            if np.linalg.norm(self.goal - reachable.here) > self.config.min_goal_distance:
+                break
+            self.give_up(frontier=False)
+        self.goals_chosen += 1
+        return Plan(self.goal, reachable.path(self.goal), new_goal=True, clusters=clusters,
+                    frontier=frontier.values)
+
+    def _reachable(self, snapshot: MapSnapshot, pose: gtsam.Pose2) -> Reachable:
+        """Path lengths from the robot over the passable cells of the method's costmap."""
         c = self.config
-        costmap = c.costmap if c.method == "gp" else c.grid_costmap
-        origin = np.asarray(origin, dtype=float)
+        origin, resolution = np.asarray(snapshot.origin, float), snapshot.resolution
         here = np.array([pose.x(), pose.y()])
         start = np.round((here - origin) / resolution).astype(int)
-        ok, cost = passable(prob, resolution, c.robot_radius, costmap, prob_occ)
+        ok, cost = passable(snapshot.prob, resolution, c.robot_radius, self.method.costmap,
+                            snapshot.prob_occ)
         # the robot stands on free ground even where its sensor has not looked (behind it)
-        h, w = prob.shape
+        h, w = ok.shape
         yy, xx = np.mgrid[0:h, 0:w]
         ok |= np.hypot(xx - start[0], yy - start[1]) * resolution <= c.robot_radius
         dist, parent = distance_field(ok, np.clip(start, 0, [w - 1, h - 1]), resolution, cost)
         reach = max(1, round(c.goals.reach / resolution))
-        near = near_distance(dist, reach)
+        return Reachable(dist, parent, near_distance(dist, reach), reach, origin, resolution, here)
 
-        if c.method == "gp":
-            frontier = frontier_map(prob, prob_occ, resolution, c.beta, c.smoothing)
-            points = _cells_above(frontier, c.goals.threshold)
-        else:
-            regions = grid_frontiers(prob, costmap, c.min_frontier_cells)
-            points = np.vstack(regions) if regions else np.zeros((0, 2), int)
-            frontier = np.zeros(prob.shape)        # the grid's frontier cells, for figures
-            frontier[points[:, 1], points[:, 0]] = 1.0
-
-        if self.goal is not None and self._goal_still_valid(points, origin, resolution, dist):
-            goal_cell = np.round((self.goal - origin) / resolution).astype(int)
-            return Plan(self.goal, self._path(parent, goal_cell, origin, resolution, here),
-                        frontier=frontier)
-
-        self.goal = None
-        # a goal where the robot already stands is a frontier it cannot see from anywhere
-        # reachable (e.g. behind a wall gap narrower than the robot): blacklist and choose again
-        while True:
-            if c.method == "gp":
-                clusters = extract_goals(frontier, origin, resolution, dist, c.goals,
-                                         self.blacklist, seed=int(self._rng.integers(2**31)))
-                if not clusters:
-                    return Plan(None, done="frontiers_exhausted", frontier=frontier)
-                best = next((k for k in clusters if k.goal is not None), None)
-                if best is None:
-                    return Plan(None, done="no_reachable_goal", clusters=clusters, frontier=frontier)
-                self.goal, self.target = best.goal, best.points
-            else:
-                clusters = []
-                # blacklisted cells leave their region; what is left must still be a frontier
-                regions = [kept for kept in (r[~self.blacklist.covers(origin + resolution * r)]
-                                             for r in regions)
-                           if len(kept) >= c.min_frontier_cells]
-                if not regions:
-                    return Plan(None, done="frontiers_exhausted", frontier=frontier)
-                found = nearest_frontier(regions, near)
-                if found is None:
-                    return Plan(None, done="no_reachable_goal", frontier=frontier)
-                k, cell = found
-                self.goal = origin + resolution * best_cell_near(dist, cell, reach)
-                self.target = origin + resolution * regions[k]
-            if np.linalg.norm(self.goal - here) > c.min_goal_distance:
-                break
-            self.give_up(frontier=False)
-        self.goals_chosen += 1
-        goal_cell = np.round((self.goal - origin) / resolution).astype(int)
-        return Plan(self.goal, self._path(parent, goal_cell, origin, resolution, here),
-                    new_goal=True, clusters=clusters, frontier=frontier)
-
-    def _goal_still_valid(self, frontier_cells: np.ndarray, origin, resolution, dist) -> bool:
+    def _goal_still_valid(self, frontier: Frontier, reachable: Reachable) -> bool:
         """The goal is still reachable and frontier points remain near its target."""
-        cell = np.round((self.goal - origin) / resolution).astype(int)
-        h, w = dist.shape
-        if not (0 <= cell[0] < w and 0 <= cell[1] < h) or not np.isfinite(dist[cell[1], cell[0]]):
+        if not np.isfinite(reachable.distance_to(self.goal)) or len(frontier.cells) == 0:
             return False
-        if len(frontier_cells) == 0:
-            return False
-        points = origin + resolution * frontier_cells
+        points = reachable.origin + reachable.resolution * frontier.cells
         targets = np.vstack([self.target, self.goal[None]])
         near = np.min(np.linalg.norm(points[:, None, :] - targets[None, :: max(1, len(targets) // 32)],
                                      axis=2), axis=1)
         return bool(np.count_nonzero(near < self.config.goals.reach) >= self.config.goals.min_points // 2)
-
-    @staticmethod
-    def _path(parent, goal_cell, origin, resolution, here) -> np.ndarray:
-        cells = path_to(parent, goal_cell)
-        path = origin + resolution * cells
-        path[0] = here
-        return path
-
-
-def _cells_above(grid: np.ndarray, threshold: float) -> np.ndarray:
-    iy, ix = np.nonzero(grid > threshold)
-    return np.column_stack([ix, iy])

@@ -27,17 +27,3 @@ def grid_frontiers(prob: np.ndarray, config: CostmapConfig, min_size: int = 10) 
     regions = np.split(cells, np.cumsum(sizes)[:-1])
     return [r for r in regions if len(r) >= min_size]
 
-
-def nearest_frontier(regions: list[np.ndarray], near_dist: np.ndarray) -> tuple[int, np.ndarray] | None:
-    """(region index, its closest cell) by path length, or None when no region is reachable.
-
-    ``near_dist`` (h, w) is the path length to the best reachable cell near each cell
-    (``paths.near_distance``).
-    """
-    best, best_d = None, np.inf
-    for k, cells in enumerate(regions):
-        d = near_dist[cells[:, 1], cells[:, 0]]
-        i = int(np.argmin(d))
-        if d[i] < best_d:
-            best, best_d = (k, cells[i]), d[i]
-    return best

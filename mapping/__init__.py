@@ -12,9 +12,10 @@
     drift.py     Jensen-Shannon divergence (eqs. 12-13), cumulated drift monitor
     grid.py      the frame of a growing map grid
     logodds.py   the log-odds occupancy grid baseline
-    metrics.py   ROC AUC, coverage, map entropy
+    metrics.py   ROC AUC, coverage, map entropy (defined once, for runs, maps and tests)
     holdout.py   held-out evaluation protocols on real logs
     export.py    com.npz and ROS map_server PGM + YAML
-    run.py       build a COM from keyframes and measure it
+    measured.py  a COM that keeps its test points and timings (log mapping)
+    occupancy.py the map interface the stack and the explorer use (MapSnapshot)
     figure.py    the paper's Fig. 2 panels
 """

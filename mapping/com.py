@@ -22,6 +22,7 @@ from mapping.gp import GaussianProcess, fit_hyperparameters
 from mapping.grid import GridFrame
 from mapping.kernels import Kernel
 from mapping.localgp import predict_blocks
+from mapping.occupancy import MapSnapshot
 from mapping.squash import squash
 from mapping.training import BeamSamples, beam_samples, voxel_thin
 from slam.scan import LaserScan
@@ -175,6 +176,10 @@ class ContinuousOccupancyMap:
         """(h, w) Λ: the COM, Λo and Λf fused by the BCM; 0.5 where unseen."""
         return self._fused(self._occ.precision, self._occ.weighted,
                            self._free.precision, self._free.weighted)[0]
+
+    def snapshot(self) -> MapSnapshot:
+        """Λ and Λo for the explorer (eq. 10 reads both)."""
+        return MapSnapshot(self.prob(), self.prob_occ(), self.frame.origin, self.frame.resolution)
 
     def var(self) -> np.ndarray:
         """(h, w) variance of Λ; the larger prior variance where unseen."""

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import gtsam
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from mapping.grid import GridFrame
+from mapping.occupancy import MapSnapshot
 from slam.scan import LaserScan
 
 
@@ -30,6 +33,10 @@ class LogOddsGrid:
 
     def __init__(self, config: LogOddsConfig | None = None):
         self.config = config or LogOddsConfig()
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every update: all cells unknown."""
         self.frame = GridFrame(self.config.resolution)
         self.logodds = np.zeros((0, 0))
 
@@ -79,13 +86,32 @@ class LogOddsGrid:
         np.clip(L, c.l_min, c.l_max, out=L)
 
     @property
+    def needs_regeneration(self) -> bool:
+        """Always: a grid has no drift measure, so any SLAM correction makes it stale."""
+        return True
+
+    def regenerate(self, keyframes: Iterable[tuple[gtsam.Pose2, LaserScan]]) -> None:
+        """Rebuild the grid from ``keyframes`` (sensor pose, scan) at their corrected poses."""
+        self.reset()
+        for pose, scan in keyframes:
+            self.update(pose, scan)
+
+    @property
     def origin(self) -> np.ndarray:
         """(2,) world coordinates of the centre of cell (0, 0), meters."""
         return self.frame.origin
 
+    @property
+    def resolution(self) -> float:
+        return self.frame.resolution
+
     def prob(self) -> np.ndarray:
         """(h, w) occupancy probability, 0.5 where unseen."""
         return 1.0 / (1.0 + np.exp(-self.logodds))
+
+    def snapshot(self) -> MapSnapshot:
+        """The grid for the explorer (no obstacle map of its own)."""
+        return MapSnapshot(self.prob(), None, self.frame.origin, self.frame.resolution)
 
     def sample(self, grid: np.ndarray, xy: np.ndarray) -> np.ndarray:
         """Values of ``grid`` (h, w) at world points ``xy`` (..., 2); 0.5 off the grid."""

@@ -12,8 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.stack import Stack, StackStep
+from exploration.stack import Stack, StackStep
 from slam.atomic import replaced_atomically
+from slam.poses import pose_array
 
 #: Longest side of a recorded map, cells: finer maps are strided down to it.
 MAX_CELLS = 400
@@ -47,7 +48,7 @@ class Frame:
 
 
 class FrameRecorder:
-    """Keeps a Frame every ``every`` steps of a run (call ``observe`` after every scan)."""
+    """Keeps a Frame every ``every`` steps of a run: an observer of ``run_episode``."""
 
     def __init__(self, every: int):
         self.every = every
@@ -55,9 +56,9 @@ class FrameRecorder:
         self._frontier = np.zeros((0, 2), np.float32)
         self._labels = np.zeros(0, np.int16)
 
-    def observe(self, step: int, stack: Stack, out: StackStep) -> None:
-        if out.plan is not None:
-            self._keep_frontier(stack, out)
+    def __call__(self, step: int, t: float, stack: Stack, out: StackStep, scan, truth) -> None:
+        if out.plan is not None and (out.plan.new_goal or out.plan.goal is None):
+            self._keep_frontier(out.plan)
         if step % self.every == 0:
             self.frames.append(self._capture(step, stack, out.pose))
 
@@ -66,23 +67,11 @@ class FrameRecorder:
         if not self.frames or self.frames[-1].step != step:
             self.frames.append(self._capture(step, stack, pose))
 
-    def _keep_frontier(self, stack: Stack, out: StackStep) -> None:
-        """The clusters of the last goal choice (a plan that keeps its goal has none); for the
-        grid baseline, every plan's frontier cells, turned into meters at once, while the map's
-        frame is still the one the plan was made on."""
-        plan = out.plan
-        if stack.method == "gp":
-            if plan.new_goal or plan.goal is None:
-                points = [k.points for k in plan.clusters]
-                self._frontier = np.vstack(points).astype(np.float32) if points else \
-                    np.zeros((0, 2), np.float32)
-                self._labels = np.repeat(np.arange(len(points), dtype=np.int16),
-                                         [len(p) for p in points])
-        else:
-            iy, ix = np.nonzero(plan.frontier)
-            self._frontier = (stack.map.origin + stack.map_resolution
-                              * np.column_stack([ix, iy])).astype(np.float32)
-            self._labels = np.zeros(len(ix), np.int16)
+    def _keep_frontier(self, plan) -> None:
+        """The clusters of the last goal choice (a plan that keeps its goal has none)."""
+        points = [k.points for k in plan.clusters]
+        self._frontier = np.vstack(points).astype(np.float32) if points else np.zeros((0, 2), np.float32)
+        self._labels = np.repeat(np.arange(len(points), dtype=np.int16), [len(p) for p in points])
 
     def _capture(self, step: int, stack: Stack, pose) -> Frame:
         prob = stack.map.prob()
@@ -91,11 +80,11 @@ class FrameRecorder:
         coded = np.round(254 * prob).astype(np.uint8)
         coded[np.abs(prob - 0.5) <= 0.01] = UNSEEN
         h, w = coded.shape
-        size = stride * stack.map_resolution
+        size = stride * stack.map.frame.resolution
         x0, _, y0, _ = stack.map.frame.extent
         plan = stack.plan
         return Frame(step, coded, (x0, x0 + w * size, y0, y0 + h * size),
-                     np.array([pose.x(), pose.y(), pose.theta()]),
+                     pose_array([pose])[0],
                      None if plan.goal is None else np.array(plan.goal, dtype=float),
                      plan.path.astype(np.float32), self._frontier, self._labels,
                      stack.loop_segments().astype(np.float32))

@@ -133,10 +133,9 @@ def map_(
     with --poses slam also the replay's trajectory.tum and graph.g2o; config.toml, the configuration used."""
     from mapping.export import save_com, write_ros_map
     from mapping.figure import com_figure
-    from mapping.run import map_keyframes
     from sim.config_file import CONFIG_NAME, write_config
+    from sim.logs import map_log
     from slam.atomic import write_json_atomic
-    from slam.replay import replay as run_replay
     from slam.replay import replay_metrics, write_trajectory_and_graph
 
     if poses not in ("log", "slam"):
@@ -151,23 +150,20 @@ def map_(
     if max_range is not None:
         cfg.stack.com.training.max_range = max_range
     records = _open_log(log, scan_topic=scan_topic, odom_topic=odom_topic)
+    run = map_log(records, poses, cfg.stack.com, cfg.stack.slam, every, holdout, progress=True)
     metrics = {"log": str(log), "poses": poses}
-    if poses == "slam":
-        result = run_replay(records, cfg.stack.slam, progress=True)
-        trajectory = result.trajectory
-        write_trajectory_and_graph(out, result)
-        metrics["slam"] = replay_metrics(records, result)
+    if run.replay is not None:
+        write_trajectory_and_graph(out, run.replay)
+        metrics["slam"] = replay_metrics(records, run.replay)
         console.print(_replay_summary(metrics["slam"]))
-    else:
-        trajectory = [r.pose for r in records]
-    keyframes = ((pose, r.scan) for pose, r in zip(trajectory[::every], records[::every]))
-    run = map_keyframes(keyframes, cfg.stack.com, holdout=holdout)
     metrics.update(run.metrics)
+    com = run.map.com
     write_config(out / CONFIG_NAME, cfg)
-    save_com(out / "com.npz", run.com)
-    write_ros_map(out / "map.pgm", run.com.prob(), run.com.origin, run.com.resolution)
+    save_com(out / "com.npz", com)
+    write_ros_map(out / "map.pgm", com.prob(), com.origin, com.resolution)
     write_json_atomic(out / "metrics.json", metrics)
-    com_figure(out / "figures" / "com.png", run.com, run.poses_xy, run.hits_xy, title=log.name)
+    com_figure(out / "figures" / "com.png", com, np.asarray(run.map.origins), np.vstack(run.map.hits),
+               title=log.name)
     m = run.metrics
     console.print(f"{m['keyframes']} scans mapped in {m['wall_time_s']:.1f} s (update median "
                   f"{m['update_ms_median']:.1f} ms, p95 {m['update_ms_p95']:.1f} ms); AUC {m['auc']:.4f} "
@@ -195,12 +191,12 @@ def replay(
     from sim.config_file import CONFIG_NAME, write_config
     from slam.carmen import CarmenLog
     from slam.evaluation import RelationsError
-    from slam.replay import replay as run_replay
+    from sim.logs import replay_log
     from slam.replay import write_replay
 
     cfg = _episode_config(config)
     records = _open_log(log, max_range, skip_malformed, scan_topic, odom_topic)
-    result = run_replay(records, cfg.stack.slam, progress=True)
+    result = replay_log(records, cfg.stack.slam, progress=True)
     write_config(out / CONFIG_NAME, cfg)
     try:
         metrics = write_replay(out, records, result, relations)

@@ -1,8 +1,12 @@
-"""One closed-loop exploration run: the robot moves, scans and explores the true world by itself."""
+"""One closed-loop exploration run: the robot moves, scans and explores the true world by itself.
+
+``run_episode`` is a plain loop over (scan, ``Stack.step``, move); what a run records (the
+coverage/entropy curve, frontier snapshots, animation frames, a Rerun log) are observers called
+after every step with ``observer(step, t, stack, out, scan, truth)``.
+"""
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -13,28 +17,22 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from tqdm import tqdm
 
 from exploration.explorer import Plan
-from exploration.follower import FollowerConfig, PathFollower
-from mapping.drift import binary_entropy
-from mapping.metrics import roc_auc
+from exploration.stack import Stack, StackConfig, StackStep
+from mapping.metrics import coverage, map_entropy, roc_auc
 from sim.animation import Frame, FrameRecorder
 from sim.lidar import Lidar, LidarConfig
 from sim.odometry import Odometry, OdometryNoise
 from sim.robot import Robot, RobotConfig
-from sim.stack import Stack, StackConfig, StackStep
 from sim.world import World
+from slam.poses import positions
 from slam.scan import LaserScan
 
-# Evaluation constants: they define the metrics (comparable across runs and methods), so they
-# are not part of the run's configuration.
-#: Map entropy is measured on cells of this size (m), the paper's metric.
-ENTROPY_CELL = 0.2
-#: A cell of the reachable free space is covered when |Λ − 0.5| exceeds this (the COM's free
-#: space sits at 0.2-0.36, a grid cell seen free once at 0.3).
-KNOWN = 0.1
+#: What observes a run: called after every step with (step, t, stack, out, scan, true pose).
+Observer = Callable[[int, float, Stack, StackStep, LaserScan, gtsam.Pose2], None]
 
 
 class EpisodeConfig(BaseModel):
-    """A run: robot, sensor, odometry noise, stack, path follower, and when to stop.
+    """A run: robot, sensor, odometry noise, the onboard stack, and when to stop.
 
     The root of gpexplore's configuration: ``gpexplore config dump`` writes it as TOML, and
     ``--config`` reads it for every command (``replay`` and ``map`` use its ``stack.slam`` and
@@ -47,15 +45,8 @@ class EpisodeConfig(BaseModel):
     lidar: LidarConfig = LidarConfig()
     odometry: OdometryNoise = OdometryNoise()
     stack: StackConfig = StackConfig()
-    follower: FollowerConfig = FollowerConfig()
     max_steps: int = Field(6000, ge=1, description="scans before the run stops (step_budget)")
     metrics_every: int = Field(25, ge=1, description="steps between coverage/entropy samples")
-    initial_spin: bool = Field(True, description="turn once on the spot before exploring (the "
-                               "laser sees only 180 degrees)")
-    stuck_steps: int = Field(150, ge=1, description="steps without getting stuck_progress closer to "
-                             "the goal along the path before it is abandoned and blacklisted")
-    stuck_progress: float = Field(0.2, gt=0, description="progress along the path (m) that restarts "
-                                  "the stuck count")
     snapshots: int = Field(4, ge=0, description="frontier-map snapshots kept for figures")
     animate_every: int = Field(0, ge=0, description="steps between the animation's frames "
                                "(0: no animation)")
@@ -106,26 +97,21 @@ class EpisodeResult:
     world: World | None = None
 
 
-class _Evaluator:
-    """Coverage of the reachable free space and map entropy over the world, from the true map."""
+class Evaluator:
+    """A map against the true world: coverage of the reachable free space, map entropy over the
+    world's extent, and ROC AUC over the observed cells (``mapping.metrics``' definitions)."""
 
     def __init__(self, world: World, start_xy, radius: float):
-        reach = world.reachable(start_xy, radius)
-        iy, ix = np.nonzero(reach)
+        iy, ix = np.nonzero(world.reachable(start_xy, radius))
         self.free_xy = world.center_of(np.column_stack([ix, iy]))
-        xmin, xmax, ymin, ymax = world.extent
-        gx = np.arange(xmin + ENTROPY_CELL / 2, xmax, ENTROPY_CELL)
-        gy = np.arange(ymin + ENTROPY_CELL / 2, ymax, ENTROPY_CELL)
-        self.entropy_xy = np.stack(np.meshgrid(gx, gy), axis=-1).reshape(-1, 2)
         self.world = world
 
     def coverage(self, stack: Stack, prob: np.ndarray) -> float:
-        p = stack.map.frame.sample(prob, self.free_xy)
-        return float(np.mean(np.abs(p - 0.5) > KNOWN))
+        return coverage(stack.map.frame.sample(prob, self.free_xy))
 
     def entropy(self, stack: Stack, prob: np.ndarray) -> float:
         """Nats over the world's extent on 0.2 m cells (unseen cells count ln 2)."""
-        return float(binary_entropy(stack.map.frame.sample(prob, self.entropy_xy)).sum())
+        return map_entropy(stack.map.frame, prob, self.world.extent)
 
     def auc(self, stack: Stack, prob: np.ndarray) -> float:
         """ROC AUC of the map against the true occupancy, over the map's observed cells."""
@@ -135,14 +121,43 @@ class _Evaluator:
         return roc_auc(self.world.is_occupied(xy), prob[iy, ix])
 
 
+class CurveRecorder:
+    """Samples (step, travel, coverage, entropy) every ``every`` steps into ``curve``."""
+
+    def __init__(self, evaluator: Evaluator, robot: Robot, every: int, curve: list):
+        self.evaluator, self.robot, self.every, self.curve = evaluator, robot, every, curve
+
+    def __call__(self, step, t, stack, out, scan, truth) -> None:
+        if step % self.every == 0:
+            self.sample(step, stack)
+
+    def sample(self, step: int, stack: Stack) -> None:
+        prob = stack.map.prob()
+        self.curve.append((step, self.robot.distance, self.evaluator.coverage(stack, prob),
+                           self.evaluator.entropy(stack, prob)))
+
+
+class SnapshotRecorder:
+    """Keeps the frontier map of the 1st, 3rd, 6th, 10th, ... goal choice (at most ``count``)."""
+
+    CHOICES = (1, 3, 6, 10, 15, 21)
+
+    def __init__(self, count: int, snapshots: list):
+        self.choices, self.snapshots = self.CHOICES[:count], snapshots
+
+    def __call__(self, step, t, stack, out, scan, truth) -> None:
+        if out.plan is not None and out.plan.new_goal and stack.explorer.goals_chosen in self.choices:
+            self.snapshots.append(Snapshot(step, out.pose, out.plan, stack.map.frame.origin.copy(),
+                                           stack.map.frame.resolution))
+
+
 def run_episode(world: World, start: gtsam.Pose2, config: EpisodeConfig | None = None,
-                seed: int = 0, progress: bool = False,
-                watch: Callable[[int, float, Stack, StackStep, LaserScan, gtsam.Pose2], None]
-                | None = None) -> EpisodeResult:
-    """Explore ``world`` from ``start`` until no frontier is left, or the step budget ends.
+                seed: int = 0, progress: bool = False, watch: Observer | None = None) -> EpisodeResult:
+    """Explore ``world`` from ``start`` until the stack says exploration is over, or the step
+    budget ends.
 
     Every random draw (lidar noise, odometry noise, k-means) comes from ``seed``. ``watch``,
-    when given, sees every scan: ``watch(step, t, stack, out, scan, true_pose)``.
+    when given, observes every step: ``watch(step, t, stack, out, scan, true_pose)``.
     """
     c = config or EpisodeConfig()
     lidar_seed, odom_seed, stack_seed = np.random.SeedSequence(seed).spawn(3)
@@ -150,81 +165,53 @@ def run_episode(world: World, start: gtsam.Pose2, config: EpisodeConfig | None =
     lidar = Lidar(c.lidar, seed=lidar_seed)
     # the odometry frame is the world frame at the start: the robot knows where it starts
     odometry = Odometry(c.odometry, seed=odom_seed, start=start)
-    stack = Stack(c.stack, seed=int(stack_seed.generate_state(1)[0]))
-    follower = PathFollower(c.robot.max_speed, c.robot.max_turn_rate, c.follower)
-    evaluator = _Evaluator(world, (start.x(), start.y()), c.robot.radius)
-    dt = 1.0 / c.lidar.rate_hz
+    stack = Stack(c.stack, seed=int(stack_seed.generate_state(1)[0]),
+                  speed_limits=(c.robot.max_speed, c.robot.max_turn_rate))
+    evaluator = Evaluator(world, (start.x(), start.y()), c.robot.radius)
     result = EpisodeResult(metrics={}, stack=stack, config=c, world=world)
+    curve = CurveRecorder(evaluator, robot, c.metrics_every, result.curve)
     recorder = FrameRecorder(c.animate_every) if c.animate_every else None
-    spin = 2 * math.pi if c.initial_spin else 0.0
-    replan, reason = False, "step_budget"
-    best_distance, since_progress, goals_abandoned = math.inf, 0, 0
-    keyframes = loops = 0
+    observers = [curve, SnapshotRecorder(c.snapshots, result.snapshots)]
+    observers += [o for o in (recorder, watch) if o is not None]
+    dt = 1.0 / c.lidar.rate_hz
+    reason = "step_budget"
     tic = time.perf_counter()
     bar = tqdm(total=c.max_steps, desc=f"explore {world.name} ({c.stack.explorer.method})",
                unit="scan", disable=not progress)
     for step in range(c.max_steps):
         t = step * dt
         scan = lidar.scan(world, robot.pose, t)
-        out = stack.step(odometry.pose, scan, truth=robot.pose, replan=replan)
-        replan = False
-        keyframes += out.keyframe is not None
-        loops += out.loops
+        out = stack.step(odometry.pose, scan, truth=robot.pose)
         result.stamps.append(t)
         result.truth.append(robot.pose)
         result.estimate.append(out.pose)
-        if recorder is not None:
-            recorder.observe(step, stack, out)
-        if watch is not None:
-            watch(step, t, stack, out, scan, robot.pose)
-        if out.plan is not None and out.plan.new_goal and len(result.snapshots) < c.snapshots \
-                and stack.explorer.goals_chosen in (1, 3, 6, 10, 15, 21)[:c.snapshots]:
-            result.snapshots.append(Snapshot(step, out.pose, out.plan, stack.map.origin.copy(),
-                                             stack.map_resolution))
-        if step % c.metrics_every == 0:
-            prob = stack.map.prob()
-            result.curve.append((step, robot.distance, evaluator.coverage(stack, prob),
-                                 evaluator.entropy(stack, prob)))
+        for observe in observers:
+            observe(step, t, stack, out, scan, robot.pose)
         bar.update()
-        plan = stack.plan
-        if spin > 0:
-            v, w = 0.0, c.robot.max_turn_rate
-            spin -= w * dt
-        elif plan.goal is None:
-            reason = plan.done
+        if out.done is not None:
+            reason = out.done
             break
-        else:
-            if out.plan is not None and out.plan.new_goal:
-                best_distance, since_progress = math.inf, 0
-            v, w, reached = follower.command(out.pose, plan.path)
-            distance = follower.remaining(out.pose, plan.path)
-            if distance < best_distance - c.stuck_progress:
-                best_distance, since_progress = distance, 0
-            else:
-                since_progress += 1
-            if reached or since_progress > c.stuck_steps:
-                if reached:
-                    stack.explorer.reached()
-                else:
-                    stack.explorer.give_up()
-                    goals_abandoned += 1
-                replan = True
-                continue
-        odometry.update(robot.move(v, w, dt))
+        odometry.update(robot.move(out.command.v, out.command.w, dt))
     bar.close()
     wall = time.perf_counter() - tic
-    prob = stack.map.prob()
     steps = len(result.stamps)
     if recorder is not None:
         recorder.finish(steps - 1, stack, result.estimate[-1])
         result.frames = recorder.frames
-    result.curve.append((steps, robot.distance, evaluator.coverage(stack, prob),
-                         evaluator.entropy(stack, prob)))
+    curve.sample(steps, stack)
+    result.metrics = _metrics(result, evaluator, robot, seed, start, reason, steps * dt, wall)
+    return result
+
+
+def _metrics(result: EpisodeResult, evaluator: Evaluator, robot: Robot, seed: int,
+             start: gtsam.Pose2, reason: str, sim_time: float, wall: float) -> dict:
+    """metrics.json of a run."""
+    c, stack = result.config, result.stack
     curve = np.array(result.curve)
-    est = np.array([[p.x(), p.y()] for p in result.estimate])
-    tru = np.array([[p.x(), p.y()] for p in result.truth])
-    result.metrics = {
-        "world": world.name,
+    steps = len(result.stamps)
+    error = positions(result.estimate) - positions(result.truth)
+    return {
+        "world": result.world.name,
         "method": c.stack.explorer.method,
         "poses": c.stack.poses,
         "seed": seed,
@@ -232,25 +219,24 @@ def run_episode(world: World, start: gtsam.Pose2, config: EpisodeConfig | None =
         "termination_reason": reason,
         "steps": steps,
         "travel_distance_m": robot.distance,
-        "sim_time_s": steps * dt,
+        "sim_time_s": sim_time,
         "wall_time_s": wall,
-        "keyframes": keyframes,
-        "loop_closures": loops,
+        "keyframes": stack.keyframes,
+        "loop_closures": stack.loops,
         "regenerations": stack.regenerations,
         "goals": stack.explorer.goals_chosen,
-        "goals_abandoned": goals_abandoned,
+        "goals_abandoned": stack.goals_abandoned,
         "final_map_entropy_nats": float(curve[-1, 3]),
         "entropy_rate_nats_per_step": float((curve[-1, 3] - curve[0, 3]) / max(steps, 1)),
         "coverage": float(curve[-1, 2]),
         "travel_at_coverage_m": {f"{q:.2f}": _first_at(curve, q) for q in (0.90, 0.95, 0.99)},
-        "auc": evaluator.auc(stack, prob),
-        "ate_rmse_m": float(np.sqrt(np.mean(np.sum((est - tru) ** 2, axis=1)))),
+        "auc": evaluator.auc(stack, stack.map.prob()),
+        "ate_rmse_m": float(np.sqrt(np.mean(np.sum(error ** 2, axis=1)))),
         "collisions": robot.collisions,
     }
-    return result
 
 
-def _first_at(curve: np.ndarray, coverage: float) -> float | None:
-    """Travel (m) when coverage first reached ``coverage``; None if it never did."""
-    hit = np.flatnonzero(curve[:, 2] >= coverage)
+def _first_at(curve: np.ndarray, level: float) -> float | None:
+    """Travel (m) when coverage first reached ``level``; None if it never did."""
+    hit = np.flatnonzero(curve[:, 2] >= level)
     return float(curve[hit[0], 1]) if hit.size else None

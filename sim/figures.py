@@ -12,11 +12,7 @@ import numpy as np  # noqa: E402
 
 from sim.tour import TourLog  # noqa: E402
 from sim.world import World  # noqa: E402
-
-
-def positions(poses) -> np.ndarray:
-    """(n, 2) x, y of poses."""
-    return np.array([[p.x(), p.y()] for p in poses])
+from slam.poses import positions  # noqa: E402
 
 
 def plot_world(ax, world: World) -> None:

@@ -13,7 +13,7 @@ from pathlib import Path
 import gtsam
 import numpy as np
 
-from sim.stack import Stack, StackStep
+from exploration.stack import Stack, StackStep
 from sim.world import World
 from slam.scan import LaserScan
 
@@ -57,7 +57,7 @@ class RerunLog:
                                           colors=[255, 140, 0]))
         if out.keyframe is not None:
             x0, _, y0, _ = stack.map.frame.extent
-            self._place("world/map", (x0, y0), (stack.map_resolution,) * 2)
+            self._place("world/map", (x0, y0), (stack.map.frame.resolution,) * 2)
             rec.log("world/map", rr.Image(_gray(stack.map.prob()), draw_order=-10.0))
             self._trajectories()
         if out.plan is not None:

@@ -6,12 +6,15 @@ from pathlib import Path
 
 import numpy as np
 
+from mapping.com import ContinuousOccupancyMap
 from mapping.export import save_com, write_ros_map
 from sim.config_file import CONFIG_NAME, write_config
 from sim.animation import write_animation
 from sim.episode import EpisodeResult
-from sim.figures import entropy_figure, frontier_figure, map_figure, positions
+from sim.figures import entropy_figure, frontier_figure, map_figure
 from slam.atomic import write_json_atomic, write_text_atomic
+from slam.pose_slam import PoseSlam
+from slam.poses import positions
 from slam.tum import write_tum
 
 
@@ -21,7 +24,7 @@ CURVE_COLUMNS = ("step", "time_s", "travel_m", "coverage", "entropy_nats")
 
 def write_episode(out: str | Path, result: EpisodeResult) -> None:
     """metrics.json, config.toml (the run's configuration), curve.csv, trajectory.tum,
-    ground_truth.tum, graph.g2o, com.npz (GP method), map.pgm + map.yaml and figures/ (with the
+    ground_truth.tum, graph.g2o (Pose SLAM), com.npz (a COM), map.pgm + map.yaml and figures/ (with the
     animation when frames were recorded) in ``out``; metrics.json is written last, so a folder
     that has it holds a finished run."""
     out = Path(out)
@@ -31,12 +34,12 @@ def write_episode(out: str | Path, result: EpisodeResult) -> None:
     write_curve(out / "curve.csv", result)
     write_tum(out / "trajectory.tum", result.stamps, result.estimate)
     write_tum(out / "ground_truth.tum", result.stamps, result.truth)
-    if stack.slam is not None:
-        stack.slam.write_g2o(out / "graph.g2o")
+    if isinstance(stack.localiser, PoseSlam):
+        stack.localiser.write_g2o(out / "graph.g2o")
     prob = stack.map.prob()
-    if stack.method == "gp":
+    if isinstance(stack.map, ContinuousOccupancyMap):
         save_com(out / "com.npz", stack.map)
-    write_ros_map(out / "map.pgm", prob, stack.map.origin, stack.map_resolution)
+    write_ros_map(out / "map.pgm", prob, stack.map.frame.origin, stack.map.frame.resolution)
     _figures(out / "figures", result, prob)
     write_json_atomic(out / "metrics.json", result.metrics)
 
@@ -53,12 +56,12 @@ def _figures(folder: Path, result: EpisodeResult, prob: np.ndarray) -> None:
     entropy_figure(folder / "entropy.png", {m["method"]: result.curve})
     if result.frames:
         write_animation(folder, result)
-    if stack.method == "gp":
+    if isinstance(stack.map, ContinuousOccupancyMap):
         from mapping.figure import com_figure
 
-        hits = [p.transformFrom(s.points().T).T for p, s in zip(stack.keyframe_poses(),
-                                                                   stack.keyframe_scans())]
-        com_figure(folder / "com_panels.png", stack.map, positions(stack.keyframe_poses()),
+        mapped = stack.mapped_scans()
+        hits = [p.transformFrom(s.points().T).T for p, s in mapped]
+        com_figure(folder / "com_panels.png", stack.map, positions(p for p, _ in mapped),
                    np.vstack(hits) if hits else None, title)
 
 

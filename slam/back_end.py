@@ -88,9 +88,6 @@ class PoseGraph:
         """(n, 2) keyframe positions."""
         return gtsam.utilities.extractPose2(self.estimate)[:, :2]
 
-    def marginal_covariance(self, key: int) -> np.ndarray:
-        return self.isam.marginalCovariance(key)
-
     def relative(self, i: int, j: int) -> tuple[gtsam.Pose2, np.ndarray]:
         """The predicted pose of j in frame i and its (3, 3) covariance, from the joint marginal."""
         xi, xj = self.pose(i), self.pose(j)

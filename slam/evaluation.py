@@ -16,6 +16,8 @@ from pathlib import Path
 import gtsam
 import numpy as np
 
+from slam.poses import pose_array
+
 #: A trajectory pose within this of a relation time is used directly (s).
 MATCH_TOLERANCE = 0.1
 #: Relations whose times are farther than this from every pose are a different time base (s).
@@ -88,10 +90,6 @@ class RelationError:
         return out
 
 
-def _xyt(poses: list[gtsam.Pose2]) -> np.ndarray:
-    return np.array([[p.x(), p.y(), p.theta()] for p in poses]).reshape(-1, 3)
-
-
 def _compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Row-wise a ∘ b for (n, 3) poses."""
     c, s = np.cos(a[:, 2]), np.sin(a[:, 2])
@@ -140,8 +138,8 @@ def relation_error(relations: Relations, stamps, poses: list[gtsam.Pose2],
     stamps = np.asarray(stamps, dtype=float)
     if stamps.size < 2:
         raise RelationsError(f"{source}: a trajectory needs at least two poses, got {stamps.size}")
-    xyt = _xyt(poses)
-    odo = _xyt(odometry) if odometry is not None else None
+    xyt = pose_array(poses)
+    odo = pose_array(odometry) if odometry is not None else None
     p1, g1 = pose_at(relations.t1, stamps, xyt, odo)
     p2, g2 = pose_at(relations.t2, stamps, xyt, odo)
     gap = np.maximum(g1, g2)

@@ -17,6 +17,7 @@ import gtsam
 import numpy as np
 
 from slam.atomic import write_text_atomic
+from slam.poses import pose_array
 
 
 class G2oFormatError(ValueError):
@@ -136,10 +137,10 @@ def chi2(graph: PoseGraph2D, poses: dict[int, gtsam.Pose2] | gtsam.Values, rotat
     if isinstance(poses, gtsam.Values):
         poses = {k: poses.atPose2(k) for k in graph.poses}
     index = {k: n for n, k in enumerate(poses)}
-    xyt = np.array([[p.x(), p.y(), p.theta()] for p in poses.values()])
+    xyt = pose_array(poses.values())
     i = np.array([index[e[0]] for e in graph.edges])
     j = np.array([index[e[1]] for e in graph.edges])
-    z = np.array([[e[2].x(), e[2].y(), e[2].theta()] for e in graph.edges])
+    z = pose_array(e[2] for e in graph.edges)
     info = np.array([e[3] for e in graph.edges])
     c, s = np.cos(xyt[i, 2]), np.sin(xyt[i, 2])
     dx, dy = xyt[j, 0] - xyt[i, 0], xyt[j, 1] - xyt[i, 1]
@@ -232,10 +233,10 @@ def refine_g2o(graph: PoseGraph2D, poses: dict[int, gtsam.Pose2], max_iterations
 
     keys = list(poses)
     index = {k: n for n, k in enumerate(keys)}
-    xyt = np.array([[p.x(), p.y(), p.theta()] for p in poses.values()])
+    xyt = pose_array(poses.values())
     i = np.array([index[e[0]] for e in graph.edges])
     j = np.array([index[e[1]] for e in graph.edges])
-    z = np.array([[e[2].x(), e[2].y(), e[2].theta()] for e in graph.edges])
+    z = pose_array(e[2] for e in graph.edges)
     upper = np.linalg.cholesky(np.array([e[3] for e in graph.edges])).transpose(0, 2, 1)
     free = np.arange(3, 3 * len(keys))
     r, jac = _residuals(xyt, i, j, z, upper, rotated)

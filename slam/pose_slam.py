@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Callable
-
 import gtsam
 import numpy as np
 
@@ -12,29 +9,10 @@ from slam.back_end import PoseGraph
 from slam.config import SlamConfig
 from slam.front_end import ScanOdometry
 from slam.g2o import write_g2o
+from slam.localiser import Localisation
 from slam.loop_closure import LoopClosure, LoopClosureDetector
 from slam.registration import scan_normals
 from slam.scan import LaserScan
-
-
-@dataclass
-class StepResult:
-    """What one scan did.
-
-    Attributes:
-        pose: the scan's current SLAM pose (keyframe estimate ∘ front-end offset).
-        keyframe: the keyframe index if the scan became one, else None.
-        loops: loop closures accepted at this scan.
-        moved: largest keyframe displacement (m) caused by those loops.
-        corrected: True when loops moved keyframes more than ``moved_threshold`` (the mapping
-            layer regenerates its map on this event).
-    """
-
-    pose: gtsam.Pose2
-    keyframe: int | None = None
-    loops: list[LoopClosure] = field(default_factory=list)
-    moved: float = 0.0
-    corrected: bool = False
 
 
 class PoseSlam:
@@ -45,7 +23,9 @@ class PoseSlam:
         keyframe_scans: per keyframe, the scan, its sensor-frame points and normals.
         keyframe_stamps: per keyframe, the scan timestamp.
         loops: every accepted loop closure.
-        on_correction: callables ``f(result)`` run when loops moved the keyframes.
+
+    A ``slam.localiser.Localiser``: its ``step`` returns a ``Localisation`` whose ``corrected``
+    is True when loops moved keyframes more than ``loop_closure.moved_threshold``.
     """
 
     def __init__(self, config: SlamConfig | None = None):
@@ -61,10 +41,11 @@ class PoseSlam:
         self.scan_stamps: list[float] = []
         self.loops: list[LoopClosure] = []
         self._pending: list[LoopClosure] = []  # verified loops beyond the Mahalanobis gate
-        self.on_correction: list[Callable[[StepResult], None]] = []
 
-    def step(self, odometry: gtsam.Pose2 | None, scan: LaserScan) -> StepResult:
-        """Track the scan, make it a keyframe if it is informative, then close loops from it."""
+    def step(self, odometry: gtsam.Pose2 | None, scan: LaserScan,
+             given: gtsam.Pose2 | None = None) -> Localisation:
+        """Track the scan, make it a keyframe if it is informative, then close loops from it
+        (``given``, a known pose, is not used: Pose SLAM localises by itself)."""
         points = scan.points()
         normals = scan_normals(points, self.config.front_end.registration.normal_max_gap)
         tracked = self.front_end.track(points, odometry)
@@ -84,7 +65,7 @@ class PoseSlam:
         anchor = len(self._keyframe_front_pose) - 1
         self.scan_anchor.append((anchor, self._keyframe_front_pose[anchor].between(tracked.pose)))
         self.scan_stamps.append(scan.timestamp)
-        result = StepResult(self.pose(len(self.scan_anchor) - 1), keyframe)
+        result = Localisation(self.pose(len(self.scan_anchor) - 1), keyframe)
         if keyframe is not None and self.config.loop_closure.enabled:
             self._close_loops(keyframe, result)
         return result
@@ -97,7 +78,7 @@ class PoseSlam:
                 or abs(delta.theta()) >= np.radians(c.min_rotation_deg)
                 or (tracked.match is not None and tracked.novelty >= c.min_novelty))
 
-    def _close_loops(self, k: int, result: StepResult) -> None:
+    def _close_loops(self, k: int, result: Localisation) -> None:
         c = self.config.loop_closure
         floor = np.diag(np.square(c.sigma_floor))
         self._pending = [p for p in self._pending if p.candidate.k >= k - c.pair_window]
@@ -128,9 +109,6 @@ class PoseSlam:
         if result.loops:
             result.pose = self.pose(len(self.scan_anchor) - 1)
             result.corrected = result.moved > c.moved_threshold
-            if result.corrected:
-                for callback in self.on_correction:
-                    callback(result)
 
     def pose(self, i: int) -> gtsam.Pose2:
         """Scan i's current SLAM pose."""
@@ -144,6 +122,10 @@ class PoseSlam:
 
     def keyframe_poses(self) -> list[gtsam.Pose2]:
         return self.graph.poses()
+
+    def loop_pairs(self) -> np.ndarray:
+        """(m, 2) int: the keyframes (j, k) each accepted loop joins."""
+        return np.array([[loop.candidate.j, loop.candidate.k] for loop in self.loops], int).reshape(-1, 2)
 
     def write_g2o(self, path) -> None:
         """The keyframe graph as g2o: optimised poses, odometry and loop edges (information)."""

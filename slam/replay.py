@@ -1,21 +1,19 @@
-"""Replay a CARMEN log or ROS bag through Pose SLAM and write its results in standard formats."""
+"""A log replay's results (a CARMEN log or ROS bag through Pose SLAM) in standard formats."""
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import gtsam
 import numpy as np
-from tqdm import tqdm
 
 from slam.atomic import write_json_atomic
 from slam.carmen import CarmenLog, write_corrected_log
-from slam.config import SlamConfig
 from slam.evaluation import read_relations, relation_error
 from slam.laser_log import LaserLog
 from slam.pose_slam import PoseSlam
+from slam.poses import positions
 from slam.tum import write_tum
 
 
@@ -27,16 +25,6 @@ class ReplayResult:
     stamps: np.ndarray
     trajectory: list[gtsam.Pose2]
     wall_time: float
-
-
-def replay(log: LaserLog, config: SlamConfig | None = None, progress: bool = False) -> ReplayResult:
-    """Run Pose SLAM over every laser record, with the log's raw odometry as the prediction."""
-    slam = PoseSlam(config)
-    tic = time.perf_counter()
-    for record in tqdm(log, desc=log.path.name, unit="scan", disable=not progress):
-        slam.step(record.odometry, record.scan)
-    wall = time.perf_counter() - tic
-    return ReplayResult(slam, np.array(slam.scan_stamps), slam.trajectory(), wall)
 
 
 def write_replay(out: str | Path, log: LaserLog, result: ReplayResult,
@@ -100,7 +88,7 @@ def trajectory_figure(path: str | Path, result: ReplayResult, max_points: int = 
     cloud = np.concatenate([transform(p, s.points()) for p, s in zip(poses, slam.keyframe_scans)])
     if len(cloud) > max_points:
         cloud = cloud[np.random.default_rng(0).choice(len(cloud), max_points, replace=False)]
-    xy = np.array([[p.x(), p.y()] for p in result.trajectory])
+    xy = positions(result.trajectory)
     fig, ax = plt.subplots(figsize=(10, 10))
     ax.scatter(cloud[:, 0], cloud[:, 1], s=0.2, c="0.3", linewidths=0)
     ax.plot(xy[:, 0], xy[:, 1], "-", color="tab:blue", lw=0.8, label="trajectory")

@@ -1,13 +1,16 @@
 import math
 
+import gtsam
 import numpy as np
 import pytest
 from pydantic import ValidationError
 from scipy import ndimage
 
 from exploration.costmap import CostmapConfig, classify, passable
-from exploration.grid_frontier import grid_frontiers, nearest_frontier
-from exploration.paths import distance_field, near_distance, path_to
+from exploration.explorer import Explorer, ExplorerConfig
+from exploration.grid_frontier import grid_frontiers
+from exploration.paths import distance_field, path_to
+from mapping.occupancy import MapSnapshot
 
 
 def room(n=100):
@@ -63,10 +66,11 @@ def test_grid_frontiers_and_nearest():
     # frontier cells are free and touch unknown space: the room's outline minus walls
     assert set(np.unique(cells[:, 0])) >= {20, 79}
     assert all(prob[iy, ix] < 0.35 for ix, iy in cells)
-    ok, _ = passable(prob, 0.1, 0.25, CostmapConfig())
-    dist, _ = distance_field(ok, (30, 50), 0.1)
-    k, cell = nearest_frontier(regions, near_distance(dist, 6))
-    assert cell[0] == 20  # the left edge is nearest to a robot at x = 3 m
+    explorer = Explorer(ExplorerConfig(method="grid", grid_costmap=CostmapConfig()))
+    plan = explorer.plan(MapSnapshot(prob, None, np.zeros(2), 0.1), gtsam.Pose2(3.0, 5.0, 0.0))
+    # the left edge (x = 2 m) is nearest to a robot at (3, 5): the goal is the reachable cell
+    # closest to the robot within reach (0.6 m) of the frontier cell (2, 5)
+    assert plan.new_goal and plan.goal == pytest.approx([2.6, 5.0])
     # tiny regions are dropped
     speck = np.full((30, 30), 0.1)
     speck[15, 15] = 0.5

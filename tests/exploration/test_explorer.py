@@ -4,6 +4,7 @@ import gtsam
 import numpy as np
 
 from exploration.explorer import Explorer, ExplorerConfig
+from mapping.occupancy import MapSnapshot
 
 
 def free_strip_beside_unknown(res=0.1):
@@ -22,7 +23,7 @@ def test_grid_explorer_leaves_a_frontier_too_close_to_observe_for_the_rest_of_it
     prob, res = free_strip_beside_unknown()
     explorer = Explorer(ExplorerConfig(method="grid", robot_radius=0.2, min_goal_distance=0.3))
     here = np.array([1.0, 1.25])
-    plan = explorer.plan(prob, None, (0.0, 0.0), res, gtsam.Pose2(*here, 0.0))
+    plan = explorer.plan(MapSnapshot(prob, None, np.zeros(2), res), gtsam.Pose2(*here, 0.0))
     assert plan.goal is not None
     assert np.linalg.norm(plan.goal - here) > 0.3
     assert explorer.blacklist.centres                   # the too-close goal was given up

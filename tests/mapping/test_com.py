@@ -59,7 +59,7 @@ def test_corridor_from_ground_truth_poses_has_auc_near_one(corridor):
     reach = corridor.reachable((2.0, 2.0), 0.25)
     iy, ix = np.nonzero(reach)
     xy = corridor.center_of(np.column_stack([ix, iy]))
-    assert coverage(com.sample(P, xy), np.ones(len(xy), bool), 0.2) > 0.95
+    assert coverage(com.sample(P, xy), 0.2) > 0.95
 
 
 def test_regeneration_removes_the_doubled_walls_of_perturbed_poses(room):

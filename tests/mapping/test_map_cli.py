@@ -160,10 +160,17 @@ def test_ros_map_pgm_is_trinary_top_row_first(tmp_path):
 
 
 def test_entropy_and_coverage_and_auc():
-    assert map_entropy(np.full((10, 10), 0.5), 0.1, 0.2) == pytest.approx(25 * np.log(2))
-    assert map_entropy(np.full((4, 4), 1e-9), 0.1, 0.2) < 1e-6
-    prob = np.array([[0.1, 0.5], [0.9, 0.35]])
-    assert coverage(prob, np.array([[True, True], [False, True]]), 0.2) == pytest.approx(1 / 3)
+    frame = GridFrame(0.1)
+    frame.ensure(np.array([0, 0]), np.array([9, 9]))
+    square = (0.0, 1.0, 0.0, 1.0)                      # 25 cells of 0.2 m
+    assert map_entropy(frame, np.full(frame.shape, 0.5), square) == pytest.approx(25 * np.log(2))
+    assert map_entropy(frame, np.full(frame.shape, 1e-9), square) < 1e-6
+    # off the map is unknown: ln 2 per cell however sure the map is
+    far = (100.0, 101.0, 100.0, 101.0)
+    assert map_entropy(frame, np.full(frame.shape, 1e-9), far) == pytest.approx(25 * np.log(2))
+    free_space = np.array([0.1, 0.5, 0.35])              # the map read at the true free space
+    assert coverage(free_space, 0.2) == pytest.approx(1 / 3)
+    assert coverage(free_space) == pytest.approx(2 / 3)  # known: |p - 0.5| > 0.1
     assert roc_auc([0, 0, 1, 1], [0.1, 0.4, 0.35, 0.8]) == pytest.approx(0.75)
     assert roc_auc([0, 1], [0.5, 0.5]) == pytest.approx(0.5)
 

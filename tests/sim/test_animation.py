@@ -7,7 +7,7 @@ from PIL import Image
 from sim import animation
 from sim.animation import MAX_CELLS, UNSEEN, FrameRecorder, write_animation
 from sim.episode import EpisodeConfig, run_episode
-from sim.stack import StackConfig
+from exploration.stack import StackConfig
 from sim.worlds import BUILTIN_WORLDS
 
 EVERY = 7
@@ -28,7 +28,7 @@ def run(request):
 
     def watch(step, t, stack, out, scan, truth):
         if out.plan is not None:
-            seen["last_plan"] = (out.plan, stack.map.origin.copy(), stack.map_resolution)
+            seen["last_plan"] = (out.plan, stack.map.frame.origin.copy(), stack.map.frame.resolution)
             if out.plan.new_goal or out.plan.goal is None:
                 seen["goal_choice"] = seen["last_plan"]
                 seen["goal_choices"] += 1
@@ -62,27 +62,21 @@ def test_frames_hold_the_run_at_their_step(run):
     np.testing.assert_array_equal(seen, np.abs(prob - 0.5) > 0.01)
     np.testing.assert_allclose(last.prob[seen] / 254, prob[seen], atol=0.5 / 254)
     x0, x1, y0, y1 = last.extent
-    assert (x1 - x0, y1 - y0) == pytest.approx((prob.shape[1] * stack.map_resolution,
-                                                prob.shape[0] * stack.map_resolution))
+    resolution = stack.map.frame.resolution
+    assert (x1 - x0, y1 - y0) == pytest.approx((prob.shape[1] * resolution, prob.shape[0] * resolution))
     # the map grows while the robot explores
     assert (run.frames[0].prob != UNSEEN).sum() < seen.sum()
 
 
 def test_the_frontier_is_the_last_goal_choices(run):
-    """The frames show the frontier clusters the goal was chosen from (gp), or the frontier
-    cells of the last plan (grid), in meters."""
+    """The frames show the frontier clusters the last goal was chosen from, in meters: the
+    k-means clusters (gp), or the frontier regions (grid)."""
     assert run.goal_choices >= 2
     last = run.frames[-1]
-    if run.metrics["method"] == "gp":
-        clusters = run.goal_choice[0].clusters
-        np.testing.assert_allclose(last.frontier, np.vstack([k.points for k in clusters]), atol=1e-5)
-        np.testing.assert_array_equal(np.bincount(last.labels), [len(k.points) for k in clusters])
-    else:
-        plan, origin, resolution = run.last_plan   # the grid's frontier comes with every plan
-        iy, ix = np.nonzero(plan.frontier)
-        np.testing.assert_allclose(last.frontier, origin + resolution * np.column_stack([ix, iy]),
-                                   atol=1e-5)
-        assert len(last.frontier) > 0 and np.all(last.labels == 0)
+    clusters = run.goal_choice[0].clusters
+    assert clusters
+    np.testing.assert_allclose(last.frontier, np.vstack([k.points for k in clusters]), atol=1e-5)
+    np.testing.assert_array_equal(np.bincount(last.labels), [len(k.points) for k in clusters])
 
 
 def test_gif_has_one_frame_per_recorded_frame(run, tmp_path):
@@ -124,5 +118,5 @@ def test_large_maps_are_recorded_strided_over_the_same_extent(run, monkeypatch):
     np.testing.assert_array_equal(small.prob, full.prob[::stride, ::stride])
     # the same corner; the far edges overhang by less than one strided cell
     assert small.extent[0] == full.extent[0] and small.extent[2] == full.extent[2]
-    cell = stride * run.stack.map_resolution
+    cell = stride * run.stack.map.frame.resolution
     assert 0 <= small.extent[1] - full.extent[1] < cell and 0 <= small.extent[3] - full.extent[3] < cell

@@ -47,8 +47,8 @@ def test_dump_holds_every_setting_and_loads_back_equal(tmp_path):
         "max_steps": 17, "lidar": {"dropout_value": "nan", "fov_deg": 270.0},
         "stack": {"poses": "truth", "explorer": {"method": "grid", "goals": {"alpha": 3.5}},
                   "com": {"obstacle": {"length_bounds": (0.1, 0.4)}, "fit_hyperparameters": False},
-                  "slam": {"loop_closure": {"yaw_offsets_deg": [0.0, 30.0]}}},
-        "follower": {"lookahead": 0.7}})
+                  "slam": {"loop_closure": {"yaw_offsets_deg": [0.0, 30.0]}},
+                  "navigation": {"follower": {"lookahead": 0.7}}}})
     path = tmp_path / "cfg.toml"
     path.write_text(dumps_config(changed))
     assert read_config(path) == changed and read_config(path) != EpisodeConfig()

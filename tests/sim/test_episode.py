@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from sim.episode import EpisodeConfig, run_episode
-from sim.stack import StackConfig
+from exploration.stack import StackConfig
 from sim.world import World
 
 

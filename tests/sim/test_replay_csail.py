@@ -7,7 +7,8 @@ import pytest
 from slam.carmen import CarmenLog
 from slam.evaluation import read_relations, relation_error
 from slam.g2o import read_g2o
-from slam.replay import replay, write_replay
+from sim.logs import replay_log
+from slam.replay import write_replay
 from slam.tum import read_tum
 
 #: Hess et al. 2016, Table I (Cartographer on mit-csail): mean translational (m), rotational (deg).
@@ -17,7 +18,7 @@ CARTOGRAPHER = (0.0319, 0.369)
 @pytest.fixture(scope="module")
 def csail(shared_data, tmp_path_factory):
     log = CarmenLog(shared_data / "logs" / "mit-csail.clf")
-    result = replay(log)
+    result = replay_log(log)
     out = tmp_path_factory.mktemp("csail")
     metrics = write_replay(out, log, result, shared_data / "relations" / "mit-csail.relations",
                            figure=False)

@@ -1,0 +1,124 @@
+"""The two ways of finding and ranking frontiers: the C-frontier map on the COM (the paper's,
+eqs. 10-11) and Yamauchi's nearest grid frontier (the baseline).
+
+Each method gives the explorer a ``Frontier`` for a map snapshot and, for a goal choice, its
+frontier clusters ranked best first, each with the reachable goal cell that observes it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from exploration.costmap import CostmapConfig
+from exploration.frontier import frontier_map
+from exploration.goals import Blacklist, FrontierCluster, extract_goals
+from exploration.grid_frontier import grid_frontiers
+from exploration.paths import best_cell_near, path_to
+from mapping.occupancy import MapSnapshot
+
+if TYPE_CHECKING:
+    from exploration.explorer import ExplorerConfig
+
+
+@dataclass(frozen=True)
+class Reachable:
+    """Where the robot can go on one snapshot: path length ``dist`` (h, w) in meters from the
+    robot (inf where unreachable) with its Dijkstra ``parent``; ``near`` (h, w), the path length
+    to the best reachable cell within ``reach`` cells of each cell; the snapshot's ``origin``
+    and ``resolution``; and the robot's position ``here`` (2,)."""
+
+    dist: np.ndarray
+    parent: np.ndarray
+    near: np.ndarray
+    reach: int
+    origin: np.ndarray
+    resolution: float
+    here: np.ndarray
+
+    def cell(self, xy: np.ndarray) -> np.ndarray:
+        """The (ix, iy) cell of a point (meters)."""
+        return np.round((np.asarray(xy) - self.origin) / self.resolution).astype(int)
+
+    def distance_to(self, xy: np.ndarray) -> float:
+        """Path length (m) to the cell of ``xy``; inf when unreachable or off the map."""
+        ix, iy = self.cell(xy)
+        h, w = self.dist.shape
+        return float(self.dist[iy, ix]) if 0 <= ix < w and 0 <= iy < h else math.inf
+
+    def path(self, goal: np.ndarray) -> np.ndarray:
+        """(k, 2) the cheapest path from the robot to the cell of ``goal``, meters."""
+        path = self.origin + self.resolution * path_to(self.parent, self.cell(goal))
+        path[0] = self.here
+        return path
+
+
+@dataclass(frozen=True)
+class Frontier:
+    """A snapshot's frontier: ``values`` (h, w) the frontier map (F, or 1 on grid frontier
+    cells), ``cells`` (n, 2) its significant cells (ix, iy), and for the grid method its
+    ``regions`` (a list of (m, 2) cell arrays)."""
+
+    values: np.ndarray
+    cells: np.ndarray
+    regions: tuple[np.ndarray, ...] = ()
+
+
+class CFrontier:
+    """The paper's method: the C-frontier map F (eq. 10) thresholded, clustered with k-means and
+    ranked by the utility of eq. 11."""
+
+    def __init__(self, config: ExplorerConfig):
+        self.config = config
+        self.costmap: CostmapConfig = config.costmap
+
+    def frontier(self, snapshot: MapSnapshot) -> Frontier:
+        c = self.config
+        values = frontier_map(snapshot.prob, snapshot.prob_occ, snapshot.resolution, c.beta, c.smoothing)
+        iy, ix = np.nonzero(values > c.goals.threshold)
+        return Frontier(values, np.column_stack([ix, iy]))
+
+    def clusters(self, frontier: Frontier, reachable: Reachable, blacklist: Blacklist,
+                 rng: np.random.Generator) -> list[FrontierCluster]:
+        return extract_goals(frontier.values, reachable.origin, reachable.resolution, reachable.dist,
+                             self.config.goals, blacklist, seed=int(rng.integers(2**31)))
+
+
+class GridFrontier:
+    """The baseline: frontier regions of the log-odds grid (free cells beside unknown ones, at
+    least ``min_frontier_cells``), the nearest by path first."""
+
+    def __init__(self, config: ExplorerConfig):
+        self.config = config
+        self.costmap: CostmapConfig = config.grid_costmap
+
+    def frontier(self, snapshot: MapSnapshot) -> Frontier:
+        regions = grid_frontiers(snapshot.prob, self.costmap, self.config.min_frontier_cells)
+        cells = np.vstack(regions) if regions else np.zeros((0, 2), int)
+        values = np.zeros(snapshot.prob.shape)
+        values[cells[:, 1], cells[:, 0]] = 1.0
+        return Frontier(values, cells, tuple(regions))
+
+    def clusters(self, frontier: Frontier, reachable: Reachable, blacklist: Blacklist,
+                 rng: np.random.Generator) -> list[FrontierCluster]:
+        """Each region left once blacklisted cells are removed is a cluster; its utility is minus
+        the path length to it (Yamauchi's nearest frontier)."""
+        origin, resolution = reachable.origin, reachable.resolution
+        clusters = []
+        for region in frontier.regions:
+            region = region[~blacklist.covers(origin + resolution * region)]
+            if len(region) < self.config.min_frontier_cells:
+                continue
+            d = reachable.near[region[:, 1], region[:, 0]]
+            best = int(np.argmin(d))
+            goal = None
+            if np.isfinite(d[best]):
+                goal = origin + resolution * best_cell_near(reachable.dist, region[best], reachable.reach)
+            points = origin + resolution * region
+            clusters.append(FrontierCluster(points, points.mean(axis=0), 1.0, float(d[best]), goal,
+                                            -float(d[best])))
+        clusters.sort(key=lambda k: -k.utility)
+        return clusters

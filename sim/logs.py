@@ -1,0 +1,66 @@
+"""Recorded logs through the onboard stack: SLAM replay, and mapping a log at its own poses or
+at the poses of the SLAM replay. A CARMEN log or a ROS bag (``slam.laser_log.LaserLog``)."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from tqdm import tqdm
+
+from exploration.stack import Stack, StackConfig
+from mapping.config import COMConfig
+from mapping.measured import MeasuredMap
+from slam.config import SlamConfig
+from slam.laser_log import LaserLog
+from slam.replay import ReplayResult
+
+
+def _drive(stack: Stack, log: LaserLog, progress: bool) -> float:
+    """Every record through ``stack`` (the log's pose given with each scan); the wall time (s)."""
+    tic = time.perf_counter()
+    for record in tqdm(log, desc=log.path.name, unit="scan", disable=not progress):
+        stack.step(record.odometry, record.scan, truth=record.pose)
+    return time.perf_counter() - tic
+
+
+def _replay_result(stack: Stack, wall: float) -> ReplayResult:
+    slam = stack.localiser
+    return ReplayResult(slam, np.array(slam.scan_stamps), slam.trajectory(), wall)
+
+
+def replay_log(log: LaserLog, config: SlamConfig | None = None, progress: bool = False) -> ReplayResult:
+    """Pose SLAM over every record of ``log``, the log's raw odometry as the prediction (the
+    stack without map or planner)."""
+    stack = Stack(StackConfig(slam=config or SlamConfig()), mapping="off", planning=False)
+    return _replay_result(stack, _drive(stack, log, progress))
+
+
+@dataclass
+class LogMap:
+    """A log's COM with its measurements; ``replay`` is the SLAM replay (``poses="slam"``)."""
+
+    map: MeasuredMap
+    metrics: dict
+    replay: ReplayResult | None = None
+
+
+def map_log(log: LaserLog, poses: Literal["log", "slam"] = "log", com: COMConfig | None = None,
+            slam: SlamConfig | None = None, every: int = 1, holdout: float = 0.0,
+            progress: bool = False) -> LogMap:
+    """The COM of every ``every``-th scan of ``log`` at its final pose: the log's own poses
+    (``poses="log"``: a corrected log's, a bag's odometry) or those of the SLAM replay, which
+    sees every scan. ``holdout`` of each scan's labelled points is kept out for the AUC."""
+    if poses not in ("log", "slam"):
+        raise ValueError(f"unknown pose source '{poses}' (have: log, slam)")
+    measured = MeasuredMap(com, holdout)
+    config = StackConfig(poses="truth" if poses == "log" else "slam", slam=slam or SlamConfig(),
+                         map_every=every)
+    stack = Stack(config, mapping="final", planning=False, occupancy=measured)
+    replay_wall = _drive(stack, log, progress)
+    tic = time.perf_counter()
+    stack.final_map()
+    metrics = {**measured.metrics(), "wall_time_s": time.perf_counter() - tic}
+    return LogMap(measured, metrics, _replay_result(stack, replay_wall) if poses == "slam" else None)

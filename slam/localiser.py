@@ -1,0 +1,98 @@
+"""The localiser's interface, and the localiser that is told its poses.
+
+A localiser turns (odometry, scan) into the scan's pose, decides which scans are keyframes,
+and may correct its keyframes later (loop closures). Two implement it: ``PoseSlam``
+(``pose_slam.py``, the method's) and ``GivenPoses``, which takes each scan's pose from
+outside: ground truth in simulation (perfect localisation, for ablations), or a corrected
+log's poses when mapping it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import gtsam
+import numpy as np
+
+from slam.config import KeyframeConfig
+from slam.scan import LaserScan
+
+
+@dataclass
+class Localisation:
+    """What one scan did to the localiser.
+
+    Attributes:
+        pose: the scan's current pose estimate (world frame).
+        keyframe: the keyframe index if the scan became one, else None.
+        loops: loop closures accepted at this scan.
+        moved: largest keyframe displacement (m) caused by those loops.
+        corrected: True when earlier keyframes moved more than the localiser's threshold: maps
+            built from them may have drifted.
+    """
+
+    pose: gtsam.Pose2
+    keyframe: int | None = None
+    loops: list = field(default_factory=list)
+    moved: float = 0.0
+    corrected: bool = False
+
+
+class Localiser(Protocol):
+    """Where each scan was taken, and which scans are keyframes."""
+
+    keyframe_scans: list[LaserScan]
+
+    def step(self, odometry: gtsam.Pose2 | None, scan: LaserScan,
+             given: gtsam.Pose2 | None = None) -> Localisation:
+        """Localise one scan; ``given`` is its known pose (read by ``GivenPoses`` only)."""
+
+    def pose(self, i: int) -> gtsam.Pose2:
+        """Scan ``i``'s current pose estimate (scans counted from 0 in ``step`` order)."""
+
+    def trajectory(self) -> list[gtsam.Pose2]:
+        """Every scan's current pose estimate."""
+
+    def keyframe_poses(self) -> list[gtsam.Pose2]:
+        """Every keyframe's current pose estimate."""
+
+    def loop_pairs(self) -> np.ndarray:
+        """(m, 2) int: the keyframes each loop closure joins."""
+
+
+class GivenPoses:
+    """A localiser told every scan's pose: a scan is a keyframe when it moved enough since the
+    last keyframe (``min_translation`` or ``min_rotation_deg`` of the keyframe settings)."""
+
+    def __init__(self, config: KeyframeConfig | None = None):
+        self.config = config or KeyframeConfig()
+        self.keyframe_scans: list[LaserScan] = []
+        self._keyframes: list[int] = []
+        self._poses: list[gtsam.Pose2] = []
+
+    def step(self, odometry: gtsam.Pose2 | None, scan: LaserScan,
+             given: gtsam.Pose2 | None = None) -> Localisation:
+        if given is None:
+            raise ValueError("GivenPoses needs the scan's pose at every step (given=...)")
+        self._poses.append(given)
+        if self._keyframes:
+            delta = self._poses[self._keyframes[-1]].between(given)
+            if (np.hypot(delta.x(), delta.y()) < self.config.min_translation
+                    and abs(delta.theta()) < np.radians(self.config.min_rotation_deg)):
+                return Localisation(given)
+        self._keyframes.append(len(self._poses) - 1)
+        self.keyframe_scans.append(scan)
+        return Localisation(given, len(self._keyframes) - 1)
+
+    def pose(self, i: int) -> gtsam.Pose2:
+        return self._poses[i]
+
+    def trajectory(self) -> list[gtsam.Pose2]:
+        return list(self._poses)
+
+    def keyframe_poses(self) -> list[gtsam.Pose2]:
+        return [self._poses[i] for i in self._keyframes]
+
+    def loop_pairs(self) -> np.ndarray:
+        return np.zeros((0, 2), int)
