@@ -132,7 +132,8 @@ def chi2(graph: PoseGraph2D, poses: dict[int, gtsam.Pose2] | gtsam.Values, rotat
 
     The translation residual is rotated into the measurement's frame, as in g2o's EdgeSE2: with
     anisotropic Ω this matters (without the rotation the minimum of Carlone's INTEL moves).
-    ``rotated=False`` leaves it in frame i (the definition behind SOURCES.md's reference minima).
+    ``rotated=False`` leaves it in frame i (the definition under which the data's reference
+    minima were computed).
     """
     if isinstance(poses, gtsam.Values):
         poses = {k: poses.atPose2(k) for k in graph.poses}
@@ -227,7 +228,7 @@ def refine_g2o(graph: PoseGraph2D, poses: dict[int, gtsam.Pose2], max_iterations
     """Levenberg–Marquardt on g2o's exact χ² (additive (x, y, θ) updates as g2o's VertexSE2), the
     first pose fixed, from ``poses``: polishes GTSAM's optimum, whose SE(2)-logarithm error
     differs from g2o's t2v error where Ω is extreme. ``rotated=False`` leaves the translation
-    residual in frame i (the definition behind SOURCES.md's reference minima)."""
+    residual in frame i (the definition under which the data's reference minima were computed)."""
     from scipy.sparse import diags
     from scipy.sparse.linalg import spsolve
 

@@ -1,5 +1,8 @@
 """Scan-to-submap registration: KISS-ICP coarse to fine, then point-to-line refinement that also
-yields the covariance, the inlier fraction, and the degenerate (unobservable) directions."""
+yields the covariance, the inlier fraction, and the degenerate (unobservable) directions.
+
+KISS-ICP is reached only through ``slam.kiss_icp_adapter``; ``pose_matrix`` and ``matrix_pose``
+live there and are importable from here too."""
 
 from __future__ import annotations
 
@@ -7,10 +10,10 @@ from dataclasses import dataclass
 
 import gtsam
 import numpy as np
-from kiss_icp.pybind import kiss_icp_pybind
 from scipy.spatial import cKDTree
 
 from slam.config import RegistrationConfig
+from slam.kiss_icp_adapter import Icp, VoxelMap, matrix_pose, pose_matrix, voxel_down_sample
 
 
 def scan_normals(points: np.ndarray, max_gap: float) -> np.ndarray:
@@ -32,27 +35,10 @@ def scan_normals(points: np.ndarray, max_gap: float) -> np.ndarray:
     return normals
 
 
-def pose_matrix(pose: gtsam.Pose2) -> np.ndarray:
-    """The 4×4 homogeneous matrix of a planar pose (KISS-ICP's pose type)."""
-    c, s = np.cos(pose.theta()), np.sin(pose.theta())
-    m = np.eye(4)
-    m[:2, :2] = [[c, -s], [s, c]]
-    m[:2, 3] = pose.x(), pose.y()
-    return m
-
-
-def matrix_pose(m: np.ndarray) -> gtsam.Pose2:
-    return gtsam.Pose2(m[0, 3], m[1, 3], np.arctan2(m[1, 0], m[0, 0]))
-
-
 def transform(pose: gtsam.Pose2, points: np.ndarray) -> np.ndarray:
     """(n, 2) points mapped from the pose's frame to its parent frame."""
     c, s = np.cos(pose.theta()), np.sin(pose.theta())
     return points @ np.array([[c, s], [-s, c]]) + [pose.x(), pose.y()]
-
-
-def _xyz(points: np.ndarray) -> kiss_icp_pybind._Vector3dVector:
-    return kiss_icp_pybind._Vector3dVector(np.column_stack([points, np.zeros(len(points))]))
 
 
 class Submap:
@@ -68,15 +54,14 @@ class Submap:
         self.points = points
         self.normals = normals
         self.config = config
-        self._voxel_maps: dict[float, kiss_icp_pybind._VoxelHashMap] = {}
+        self._voxel_maps: dict[float, VoxelMap] = {}
         self.tree = cKDTree(points)
 
-    def voxel_map(self, size: float) -> kiss_icp_pybind._VoxelHashMap:
+    def voxel_map(self, size: float) -> VoxelMap:
         """The KISS-ICP voxel map at ``size`` m, built on first use."""
         if size not in self._voxel_maps:
-            voxel_map = kiss_icp_pybind._VoxelHashMap(voxel_size=size, max_distance=1e9,
-                                                      max_points_per_voxel=self.config.max_points_per_voxel)
-            voxel_map._add_points(_xyz(self.points))
+            voxel_map = VoxelMap(size, self.config.max_points_per_voxel)
+            voxel_map.add(self.points)
             self._voxel_maps[size] = voxel_map
         return self._voxel_maps[size]
 
@@ -116,21 +101,16 @@ class Registration:
 
     def __init__(self, config: RegistrationConfig | None = None):
         self.config = config or RegistrationConfig()
-        self._icp = kiss_icp_pybind._Registration(max_num_iterations=self.config.icp_iterations,
-                                                  convergence_criterion=self.config.icp_convergence,
-                                                  max_num_threads=1)
+        self._icp = Icp(self.config.icp_iterations, self.config.icp_convergence, threads=1)
 
     def coarse_to_fine(self, points: np.ndarray, submap: Submap, guess: gtsam.Pose2,
                        start_level: int = 0, stop_level: int | None = None) -> gtsam.Pose2:
         """KISS-ICP at each voxel size from ``start_level`` up to (not including) ``stop_level``:
         each level corrects about one voxel."""
-        estimate = pose_matrix(guess)
+        estimate = pose_matrix(guess)       # 4×4 from level to level: no yaw round trip between them
         for size in self.config.voxel_sizes[start_level:stop_level]:
-            voxel_map = submap.voxel_map(size)
-            source = np.asarray(kiss_icp_pybind._voxel_down_sample(_xyz(points), 0.5 * size))
-            estimate = self._icp._align_points_to_map(
-                points=kiss_icp_pybind._Vector3dVector(source), voxel_map=voxel_map,
-                initial_guess=estimate, max_correspondance_distance=2.0 * size, kernel=size / 3.0)
+            estimate = self._icp.align_matrix(voxel_down_sample(points, 0.5 * size), submap.voxel_map(size),
+                                              estimate, max_correspondence=2.0 * size, kernel=size / 3.0)
         return matrix_pose(estimate)
 
     def refine(self, points: np.ndarray, submap: Submap, pose: gtsam.Pose2,

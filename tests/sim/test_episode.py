@@ -34,7 +34,7 @@ def test_small_world_is_explored_to_completion(world, method, poses):
     assert m["coverage"] >= (0.99 if method == "gp" else 0.95)
     assert m["collisions"] == 0
     assert m["auc"] > 0.9
-    assert m["travel_distance_m"] < 60
+    # travel and steps against an independent bound: test_episode_bound.py
     # the robot went through the door into the right room
     assert max(p.x() for p in result.truth) > 6.0
     if poses == "slam":

@@ -1,4 +1,5 @@
-"""Scan registration: known transforms recovered, corridors detected as degenerate."""
+"""Scan registration: known transforms recovered, corridors detected as degenerate; the KISS-ICP
+adapter keeps one point per voxel and aligns a known offset."""
 
 import math
 
@@ -7,6 +8,7 @@ import numpy as np
 import pytest
 
 from slam.config import RegistrationConfig
+from slam.kiss_icp_adapter import Icp, VoxelMap, pose_matrix, voxel_down_sample
 from slam.registration import Registration, Submap, scan_normals
 from slam.scan import LaserScan, fov_angles
 
@@ -66,3 +68,49 @@ def test_corridor_is_degenerate_and_follows_the_odometry_prior():
     assert match.pose.y() == pytest.approx(1.05, abs=0.005)    # ...y and θ from the walls
     assert match.pose.theta() == pytest.approx(0.02, abs=0.003)
     assert math.sqrt(match.covariance[0, 0]) > 5 * math.sqrt(match.covariance[1, 1])
+
+
+def test_voxel_down_sample_keeps_the_first_point_of_each_voxel():
+    points = np.random.default_rng(0).uniform(-2.0, 2.0, (400, 2))
+    kept = voxel_down_sample(points, 0.5)
+    voxels = [tuple(v) for v in np.floor(points / 0.5).astype(int)]
+    first = {}
+    for i, v in enumerate(voxels):
+        first.setdefault(v, i)
+    assert kept.shape == (len(first), 2)                          # one point per occupied voxel
+    rows = [int(np.flatnonzero((points == q).all(axis=1))[0]) for q in kept]   # exact copies
+    assert sorted(rows) == sorted(first.values())                 # ... and the first in its voxel
+
+
+def test_voxel_map_caps_and_thins_the_points_per_voxel():
+    # kiss-icp 1.x keeps at most max_points_per_voxel points per voxel, each at least
+    # voxel_size / sqrt(max_points_per_voxel) from the others (here 1 / sqrt(3) = 0.577 m)
+    voxel_map = VoxelMap(voxel_size=1.0, max_points_per_voxel=3)
+    corners = np.array([[0.05, 0.05], [0.95, 0.05], [0.05, 0.95], [0.95, 0.95]])   # 0.9 m apart
+    voxel_map.add(corners)
+    voxel_map.add(np.array([[0.5, 0.5], [5.5, 5.5]]))        # 0.64 m from corners, but the voxel is full
+    held = voxel_map.points()
+    assert len(held) == 4 and {tuple(p) for p in held} <= {tuple(p) for p in corners} | {(5.5, 5.5)}
+    thin = VoxelMap(voxel_size=1.0, max_points_per_voxel=3)
+    thin.add(np.array([[0.1, 0.5], [0.6, 0.5], [0.75, 0.5]]))  # 0.5 m < 0.577 m: only the first and last
+    assert sorted(thin.points()[:, 0]) == [0.1, 0.75]
+
+
+def test_icp_recovers_a_small_offset_of_an_l_shaped_wall():
+    # the scan is the map's own points seen from ``truth``, 10 cm apart; the offset moves every
+    # point less than half of that (2.5 cm + 3.5 m · 0.3° < 5 cm), so nearest neighbours are the
+    # true correspondences and ICP must reach the truth to its convergence tolerance
+    s = np.linspace(0.0, 4.0, 41)
+    wall = np.concatenate([np.column_stack([s, np.zeros_like(s)]), np.column_stack([np.zeros(40), s[1:]])])
+    truth = gtsam.Pose2(0.8, 0.6, 0.3)
+    c, s_ = math.cos(truth.theta()), math.sin(truth.theta())
+    body = (wall - [truth.x(), truth.y()]) @ np.array([[c, -s_], [s_, c]])   # the wall seen from truth
+    voxel_map = VoxelMap(voxel_size=0.4, max_points_per_voxel=20)          # thinning 0.09 m < 0.1 m
+    voxel_map.add(wall)
+    assert len(voxel_map.points()) == len(wall)
+    guess = truth.compose(gtsam.Pose2(0.02, -0.015, math.radians(0.3)))
+    icp = Icp(max_iterations=100, convergence=1e-8)
+    pose = icp.align(body, voxel_map, guess, max_correspondence=0.5, kernel=0.1)
+    error = truth.between(pose)
+    assert math.hypot(error.x(), error.y()) < 1e-6 and abs(error.theta()) < 1e-6
+    assert pose.equals(icp.align(body, voxel_map, pose_matrix(guess), 0.5, 0.1), 0.0)   # 4×4 start alike
