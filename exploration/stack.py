@@ -97,8 +97,7 @@ class Stack:
         self.explorer = Explorer(c.explorer, seed=seed) if planning else None
         self.navigator = Navigator(c.navigation, *speed_limits) if planning else None
         self.plan: Plan | None = None
-        self.scans = self.keyframes = self.loops = 0
-        self.regenerations = self.goals_abandoned = 0
+        self.scans = self.regenerations = self.goals_abandoned = 0
         self._mapped: list[tuple[int, LaserScan]] = []   # (scan index, scan) in the map
         self._since_plan = 0
 
@@ -114,8 +113,6 @@ class Stack:
         here = self.localiser.step(odometry, scan, truth)                    # localise
         out = StackStep(here.pose, here.keyframe, len(here.loops))
         self.scans += 1
-        self.keyframes += here.keyframe is not None
-        self.loops += len(here.loops)
         if self.map is not None and self._maps(here):
             self._map(here.pose, scan)                                       # update the map
         if here.corrected and self._drifted():                               # drift check
@@ -143,9 +140,12 @@ class Stack:
 
     def _navigate(self, here: Localisation, stamp: float, out: StackStep) -> None:
         """Re-plan when a goal is needed (none yet, every ``plan_every`` keyframes, the goal
-        reached or abandoned), then command the robot along the plan's path."""
+        reached or abandoned, and before stopping, so that the stop is decided on the current
+        map), then command the robot along the plan's path."""
         self._since_plan += here.keyframe is not None
-        if self.plan is None or (here.keyframe is not None and self._since_plan >= self.config.plan_every):
+        spinning = self.navigator.spinning(stamp)
+        if (self.plan is None or (here.keyframe is not None and self._since_plan >= self.config.plan_every)
+                or (self.plan.goal is None and not spinning)):
             out.plan = self.replan(here.pose)
         command = self.navigator.command(here.pose, self.plan, stamp)
         if command.event is not None:
@@ -157,7 +157,7 @@ class Stack:
             out.plan = self.replan(here.pose)
             command = self.navigator.command(here.pose, self.plan, stamp)
         out.command = command
-        if self.plan.goal is None and not self.navigator.spinning(stamp):
+        if self.plan.goal is None and not spinning:
             out.done = self.plan.done
 
     def replan(self, pose: gtsam.Pose2) -> Plan:
@@ -184,6 +184,15 @@ class Stack:
 
     def keyframe_poses(self) -> list[gtsam.Pose2]:
         return self.localiser.keyframe_poses()
+
+    @property
+    def keyframes(self) -> int:
+        return len(self.localiser.keyframe_scans)
+
+    @property
+    def loops(self) -> int:
+        """Loop closures accepted so far."""
+        return len(self.localiser.loop_pairs())
 
     def loop_segments(self) -> np.ndarray:
         """(m, 2, 2) the loop closures as segments between their keyframes' current estimates."""
