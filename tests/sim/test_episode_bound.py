@@ -8,6 +8,7 @@ import gtsam
 import numpy as np
 import pytest
 from coverage_tour import seeing_tour, step_bound, visible
+from small_worlds import two_rooms
 
 from sim.episode import EpisodeConfig, run_episode
 from sim.lidar import LidarConfig
@@ -20,20 +21,6 @@ START = gtsam.Pose2(1.5, 1.5, 0.0)
 SLACK = 1.3
 #: A run that drives less than half the seeing tour cannot have seen everything.
 LOWER = 0.5
-
-
-def two_rooms() -> World:
-    """10 m x 6 m, walls around, a dividing wall with a 1.2 m door, a block in the right room.
-
-    A copy of ``tests/sim/test_episode.py``'s world.
-    """
-    res = 0.05
-    grid = np.zeros((120, 200), dtype=bool)
-    grid[:4], grid[-4:], grid[:, :4], grid[:, -4:] = True, True, True, True
-    grid[:, 98:102] = True
-    grid[48:72, 98:102] = False          # the door, y in [2.4, 3.6)
-    grid[70:90, 150:170] = True          # a 1 m block at x in [7.5, 8.5), y in [3.5, 4.5)
-    return World(grid, (res, res), name="two_rooms")
 
 
 def box(width: float, height: float, wall: float = 0.1, res: float = 0.05) -> World:

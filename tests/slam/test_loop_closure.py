@@ -20,25 +20,10 @@ from slam.config import LoopClosureConfig, RegistrationConfig
 from slam.loop_closure import Candidate, LoopClosureDetector
 from slam.pose_slam import PoseSlam
 from slam.registration import scan_normals
-from slam.scan import LaserScan, fov_angles
+from wall_scans import cast
 
 TOL_XY, TOL_THETA = 2e-3, math.radians(0.02)     # m, rad: exact scans leave only the 1e-4 steps
 LINK_SIGMA = np.array([0.02, 0.02, 0.005])        # m, m, rad: one keyframe link of the graph
-
-
-def cast(pose: gtsam.Pose2, walls, n=361, max_range=8.0) -> LaserScan:
-    """Exact 180° scan from ``pose`` into axis-aligned walls [(axis, value, lo, hi)]."""
-    angles = fov_angles(n, math.pi, include_end=True)
-    world = angles + pose.theta()
-    d = np.column_stack([np.cos(world), np.sin(world)])
-    origin = np.array([pose.x(), pose.y()])
-    best = np.full(n, np.inf)
-    for axis, value, lo, hi in walls:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = (value - origin[axis]) / d[:, axis]
-        other = origin[1 - axis] + t * d[:, 1 - axis]
-        best = np.where((t > 0) & (other >= lo) & (other <= hi) & (t < best), t, best)
-    return LaserScan(np.where(best < max_range, best, np.inf), angles, max_range)
 
 
 def box(x0, y0, x1, y1):

@@ -10,23 +10,8 @@ import pytest
 from slam.config import RegistrationConfig
 from slam.kiss_icp_adapter import Icp, VoxelMap, pose_matrix, voxel_down_sample
 from slam.registration import Registration, Submap, scan_normals
-from slam.scan import LaserScan, fov_angles
-
-
-def room_scan(pose: gtsam.Pose2, walls, n=361, max_range=8.0) -> LaserScan:
-    """Exact ranges from ``pose`` to axis-aligned walls [(axis, value, lo, hi)], vectorised."""
-    angles = fov_angles(n, math.pi, include_end=True)
-    world = angles + pose.theta()
-    d = np.column_stack([np.cos(world), np.sin(world)])
-    origin = np.array([pose.x(), pose.y()])
-    best = np.full(n, np.inf)
-    for axis, value, lo, hi in walls:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = (value - origin[axis]) / d[:, axis]
-        other = origin[1 - axis] + t * d[:, 1 - axis]
-        ok = (t > 0) & (other >= lo) & (other <= hi)
-        best = np.where(ok & (t < best), t, best)
-    return LaserScan(np.where(best < max_range, best, np.inf), angles, max_range)
+from slam.scan import LaserScan
+from wall_scans import cast
 
 
 ROOM = [(0, 0.0, 0, 6), (0, 7.0, 0, 6), (1, 0.0, 0, 7), (1, 6.0, 0, 7), (0, 3.0, 2, 4), (1, 2.0, 3, 5)]
@@ -43,8 +28,8 @@ def test_coarse_to_fine_recovers_a_known_offset(offset):
     config = RegistrationConfig()
     reference = gtsam.Pose2(1.5, 1.0, 0.6)
     truth = reference.compose(gtsam.Pose2(0.5, 0.2, 0.1))
-    submap = submap_from(room_scan(reference, ROOM), reference, config)
-    points = room_scan(truth, ROOM).points()
+    submap = submap_from(cast(reference, ROOM), reference, config)
+    points = cast(truth, ROOM).points()
     guess = truth.compose(gtsam.Pose2(offset[0], offset[1], math.radians(offset[2])))
     match = Registration(config).register(points, submap, guess)
     error = truth.between(match.pose)
@@ -57,8 +42,8 @@ def test_corridor_is_degenerate_and_follows_the_odometry_prior():
     config = RegistrationConfig()
     reference = gtsam.Pose2(0.0, 1.0, 0.0)
     truth = gtsam.Pose2(0.7, 1.05, 0.02)
-    submap = submap_from(room_scan(reference, CORRIDOR), reference, config)
-    points = room_scan(truth, CORRIDOR).points()
+    submap = submap_from(cast(reference, CORRIDOR), reference, config)
+    points = cast(truth, CORRIDOR).points()
     odometry = gtsam.Pose2(0.68, 1.0, 0.0)          # wheel odometry: 2 cm short, 5 cm to the side
     prior_info = np.diag([1 / 0.02**2, 1 / 0.02**2, 1 / 0.02**2])
     match = Registration(config).register(points, submap, odometry, prior=(odometry, prior_info))
