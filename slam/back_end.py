@@ -3,6 +3,8 @@ closures, marginal covariances, and the record needed to write the graph as g2o.
 
 from __future__ import annotations
 
+from collections import Counter
+
 import gtsam
 import numpy as np
 
@@ -19,20 +21,35 @@ def well_conditioned(covariance: np.ndarray, min_sigma: float = 1e-4, max_sigma:
     return (vectors * values) @ vectors.T
 
 
+class SlamError(RuntimeError):
+    """The pose graph cannot take a keyframe even after rebuilding its solver."""
+
+
 class PoseGraph:
-    """Incremental smoothing of keyframe poses (keys 0, 1, 2, … in insertion order)."""
+    """Incremental smoothing of keyframe poses (keys 0, 1, 2, … in insertion order).
+
+    When iSAM2 finds its linear system indeterminate (GTSAM's IndeterminantLinearSystemException:
+    a nearly unconstrained variable), the solver is rebuilt from every factor with QR
+    factorisation and counted in ``fallbacks["isam2_rebuilt"]``; a loop closure that still
+    cannot be added is left out (``fallbacks["loops_dropped"]``).
+    """
 
     def __init__(self, config: BackEndConfig | None = None):
         self.config = config or BackEndConfig()
+        self.isam = gtsam.ISAM2(self._params(self.config.qr))
+        self.estimate = gtsam.Values()
+        self.factors = gtsam.NonlinearFactorGraph()
+        #: (i, j, measurement, covariance, is_loop) for every between factor, in order.
+        self.edges: list[tuple[int, int, gtsam.Pose2, np.ndarray, bool]] = []
+        self.fallbacks: Counter = Counter()
+
+    def _params(self, qr: bool) -> gtsam.ISAM2Params:
         params = gtsam.ISAM2Params()
         params.setRelinearizeThreshold(self.config.relinearize_threshold)
         params.relinearizeSkip = self.config.relinearize_skip
-        if self.config.qr:
+        if qr:
             params.setFactorization("QR")
-        self.isam = gtsam.ISAM2(params)
-        self.estimate = gtsam.Values()
-        #: (i, j, measurement, covariance, is_loop) for every between factor, in order.
-        self.edges: list[tuple[int, int, gtsam.Pose2, np.ndarray, bool]] = []
+        return params
 
     def __len__(self) -> int:
         return self.estimate.size()
@@ -42,7 +59,8 @@ class PoseGraph:
         graph, values = gtsam.NonlinearFactorGraph(), gtsam.Values()
         graph.add(gtsam.PriorFactorPose2(0, pose, gtsam.noiseModel.Diagonal.Sigmas(np.asarray(sigmas))))
         values.insert(0, pose)
-        self._update(graph, values)
+        if not self._update(graph, values):
+            raise SlamError(f"the pose graph cannot take its first keyframe at {pose}")
         return 0
 
     def add_keyframe(self, measurement: gtsam.Pose2, covariance: np.ndarray) -> int:
@@ -53,30 +71,50 @@ class PoseGraph:
         covariance = well_conditioned(covariance)
         graph.add(gtsam.BetweenFactorPose2(i, j, measurement, gtsam.noiseModel.Gaussian.Covariance(covariance)))
         values.insert(j, self.pose(i).compose(measurement))
+        if not self._update(graph, values):
+            raise SlamError(f"the pose graph cannot take keyframe {j} (link {measurement}, σ "
+                            f"{np.sqrt(np.diag(covariance))}) even with a rebuilt QR solver")
         self.edges.append((i, j, measurement, covariance, False))
-        self._update(graph, values)
         return j
 
     def add_loop(self, i: int, j: int, measurement: gtsam.Pose2, covariance: np.ndarray,
-                 cauchy_k: float, extra_updates: int) -> float:
+                 cauchy_k: float, extra_updates: int) -> float | None:
         """A loop closure (pose j in frame i) with a Cauchy kernel; returns the largest keyframe
-        displacement it caused (m)."""
+        displacement it caused (m), or None when the solver could not take it (left out)."""
         before = self.positions()
         covariance = well_conditioned(covariance)
         graph = gtsam.NonlinearFactorGraph()
         noise = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Cauchy.Create(cauchy_k),
                                                gtsam.noiseModel.Gaussian.Covariance(covariance))
         graph.add(gtsam.BetweenFactorPose2(i, j, measurement, noise))
+        if not self._update(graph, gtsam.Values()):
+            self.fallbacks["loops_dropped"] += 1
+            return None
         self.edges.append((i, j, measurement, covariance, True))
-        self._update(graph, gtsam.Values())
         for _ in range(extra_updates):
             self.isam.update()
         self.estimate = self.isam.calculateEstimate()
         return float(np.max(np.linalg.norm(self.positions() - before, axis=1)))
 
-    def _update(self, graph, values) -> None:
-        self.isam.update(graph, values)
+    def _update(self, graph: gtsam.NonlinearFactorGraph, values: gtsam.Values) -> bool:
+        """Add factors (and new variables) to iSAM2; on an indeterminate system, rebuild the
+        solver with QR from every factor. False when even that fails (nothing was added)."""
+        try:
+            self.isam.update(graph, values)
+        except RuntimeError:                       # GTSAM's IndeterminantLinearSystemException
+            self.fallbacks["isam2_rebuilt"] += 1
+            everything, start = gtsam.NonlinearFactorGraph(self.factors), gtsam.Values(self.estimate)
+            everything.push_back(graph)
+            start.insert(values)
+            rebuilt = gtsam.ISAM2(self._params(qr=True))
+            try:
+                rebuilt.update(everything, start)
+            except RuntimeError:
+                return False
+            self.isam = rebuilt
+        self.factors.push_back(graph)
         self.estimate = self.isam.calculateEstimate()
+        return True
 
     def pose(self, key: int) -> gtsam.Pose2:
         return self.estimate.atPose2(key)

@@ -16,6 +16,11 @@ re-basing (an ODOM line right after a scan repeating its pose; the timestamp mea
 sometimes garbage) and chains the increments into a proper odometry trajectory:
 ``odometry[k+1] = odometry[k] ∘ pose[k]⁻¹ ∘ ODOM_last_before(k+1)``, so the relative motion between
 consecutive records' ``odometry`` is the wheel odometry's, as a SLAM front end needs.
+
+A log with ODOM lines where no (non-repeat) ODOM line came between two scans says nothing about
+the motion between them: that record's ``odometry`` is None, not the stale value, which would
+claim the robot stood still (Örebro's corrected log has wheel increments before 18 of its 237
+scans).
 """
 
 from __future__ import annotations
@@ -47,13 +52,14 @@ class LaserRecord:
         line: 1-based line number in the file.
         scan: the ranges, beam angles and ipc timestamp.
         pose: the pose logged with the scan (odometry in raw logs, SLAM pose in corrected logs).
-        odometry: the raw wheel odometry at the scan.
+        odometry: the raw wheel odometry at the scan; None when the log's ODOM lines say nothing
+            about the motion since the previous scan.
     """
 
     line: int
     scan: LaserScan
     pose: gtsam.Pose2
-    odometry: gtsam.Pose2
+    odometry: gtsam.Pose2 | None
 
 
 class CarmenLog(LaserLog):
@@ -87,6 +93,8 @@ class CarmenLog(LaserLog):
         last_odom: gtsam.Pose2 | None = None
         after_laser = False
         rebase: gtsam.Pose2 | None = None  # the corrected pose the ODOM lines continue from
+        chain: gtsam.Pose2 | None = None   # the chained odometry at the last scan
+        fresh = False                      # an ODOM increment came since the last scan
         self.rebased_odometry = False
         try:
             with opener(self.path, "rt", errors="replace") as f:
@@ -106,14 +114,21 @@ class CarmenLog(LaserLog):
                                 last_odom = odom
                             else:
                                 last_odom = odom
+                                fresh = True
                                 self.has_odom_lines = True
                         after_laser = kind in ("FLASER", "ROBOTLASER1")
                         if after_laser:
                             parse = _parse_flaser if kind == "FLASER" else _parse_robotlaser
                             scan, pose, odom = parse(fields, self.max_range)
-                            odometry = last_odom if self.has_odom_lines else odom
-                            if rebase is not None and self.records:
-                                odometry = self.records[-1].odometry.compose(rebase.between(last_odom))
+                            if not self.has_odom_lines:
+                                odometry = odom
+                            else:
+                                if rebase is not None and chain is not None:
+                                    chain = chain.compose(rebase.between(last_odom))
+                                else:
+                                    chain = last_odom
+                                odometry = chain if fresh or not self.records else None
+                            fresh = False
                             self.records.append(LaserRecord(number, scan, pose, odometry))
                         elif kind == "PARAM" and len(fields) >= 3:
                             self.params[fields[1]] = fields[2]

@@ -3,7 +3,7 @@ the MIT CSAIL log and on the simulator's 8 m / 180° Stage-like laser."""
 
 from __future__ import annotations
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, PositiveFloat
 
 
 class _Config(BaseModel):
@@ -62,6 +62,10 @@ class KeyframeConfig(_Config):
                                description="share of scan points the submap does not explain (new information)")
     between_sigma_floor: list[float] = Field([0.01, 0.01, 0.003], min_length=3, max_length=3,
                                              description="floor of keyframe-link σ (m, m, rad)")
+    motion_prior_sigma: list[PositiveFloat] = Field([1.0, 1.0, 0.5], min_length=3, max_length=3,
+                                            description="σ (m, m, rad) of the motion prior on a keyframe link: "
+                                            "it constrains a direction that neither the scan match nor the "
+                                            "wheel odometry observed, so that every link has full rank")
 
 
 class LoopClosureConfig(_Config):

@@ -19,13 +19,17 @@ class Tracked:
 
     Attributes:
         pose: the scan's pose in the front end's (locally consistent) odometry frame.
-        covariance: (3, 3) of that pose relative to the submap.
+        information: (3, 3) of that pose relative to the submap, from the evidence alone: the
+            scan match's Hessian, with the wheel odometry's information where the match used it
+            (or the wheels' alone when the scan could not be matched); near zero along a
+            direction neither observes (a featureless corridor without wheels, no odometry and
+            no match), so that a motion prior can be put there explicitly.
         match: the registration, None when the scan could not be matched.
         novelty: share of the scan's points the submap does not explain (1 with no match).
     """
 
     pose: gtsam.Pose2
-    covariance: np.ndarray
+    information: np.ndarray
     match: Match | None
     novelty: float
 
@@ -33,9 +37,10 @@ class Tracked:
 class ScanOdometry:
     """KISS-ICP scan-to-submap odometry with wheel odometry as the initial guess.
 
-    Where the scene leaves a direction unobservable (a featureless corridor: point-to-point ICP
-    would report no motion) the wheel odometry's value is kept in that direction and its
-    variance is the odometry's.
+    Wheel odometry and scan matching are fused by information in one Gauss–Newton problem (the
+    wheels' prediction is a Gaussian prior of the point-to-line refinement): where the scene
+    leaves a direction unobservable (a featureless corridor: point-to-point ICP would report no
+    motion) the wheels' value and information hold that direction; elsewhere the laser's do.
     """
 
     def __init__(self, config: FrontEndConfig | None = None):
@@ -60,30 +65,27 @@ class ScanOdometry:
 
     def track(self, points: np.ndarray, wheel: gtsam.Pose2 | None) -> Tracked:
         """Register one scan's (m, 2) sensor-frame hit points; ``wheel`` is the raw odometry pose."""
-        if wheel is not None and self._last_wheel is not None:
-            delta = self._last_wheel.between(wheel)
-        else:
-            delta = self._last_delta
+        wheels = wheel is not None and self._last_wheel is not None
+        delta = self._last_wheel.between(wheel) if wheels else self._last_delta   # else constant velocity
         if self.pose is None:
             self.pose = wheel if wheel is not None else gtsam.Pose2()
             self._last_wheel = wheel
             return Tracked(self.pose, np.zeros((3, 3)), None, 1.0)
         guess = self.pose.compose(delta)
+        wheel_information = np.linalg.inv(self.odometry_covariance(delta)) if wheels else np.zeros((3, 3))
         match = None
         if self._submap is not None and len(points) >= self.config.registration.min_points:
-            prior = (guess, np.linalg.inv(self.odometry_covariance(delta))) if wheel is not None else None
-            match = self._register(points, guess, prior)
+            match = self._register(points, guess, (guess, wheel_information) if wheels else None)
+            if not match.information.any():          # nothing matched: no evidence from the scan
+                match = None
         if match is None:
-            pose, covariance, novelty = guess, self.odometry_covariance(delta), 1.0
+            pose, information, novelty = guess, wheel_information, 1.0
         else:
-            pose, novelty, covariance = match.pose, 1.0 - match.inlier_fraction, match.covariance
-            if wheel is None:
-                for u in match.degenerate:
-                    covariance = covariance + np.outer(u, u) * (u @ self.odometry_covariance(delta) @ u)
+            pose, information, novelty = match.pose, match.information, 1.0 - match.inlier_fraction
         self._last_delta = self.pose.between(pose)
         self.pose = pose
         self._last_wheel = wheel
-        return Tracked(pose, covariance, match, novelty)
+        return Tracked(pose, information, match, novelty)
 
     def _register(self, points: np.ndarray, guess: gtsam.Pose2, prior) -> Match:
         """Fine levels first (the prediction is usually good). On a poor fit, the full

@@ -66,7 +66,7 @@ class LoopClosureDetector:
         self.config = config or LoopClosureConfig()
         self.registration = Registration(registration or RegistrationConfig())
         self.tried = 0
-        #: why verifications failed: {"inliers": n, "degenerate": n, "mahalanobis": n}
+        #: why candidates were turned down: {"inliers": n, "degenerate": n, "asymmetric": n, ...}
         self.rejected: Counter = Counter()
 
     def candidates(self, graph: PoseGraph, k: int) -> list[Candidate]:
@@ -107,6 +107,9 @@ class LoopClosureDetector:
                                    [scans[i][0] for i in members], [scans[i][1] for i in members],
                                    self.registration.config)
         points = scans[k][0]
+        if len(points) < self.registration.config.min_points:
+            self.rejected["too_few_points"] += 1
+            return None
         # coarse levels from each yaw offset, scored by the share of points near the submap;
         # the fine levels and the refinement only from the best start
         reg = self.registration
@@ -121,8 +124,11 @@ class LoopClosureDetector:
                 best_start, best_score = start, score
             if score >= c.coarse_accept:
                 break
+        if best_start is None:                     # no start scored (a NaN pose from a wild guess)
+            self.rejected["no_start"] += 1
+            return None
         best = reg.register(points, submap, best_start, start_level=max(coarse - 1, 0))
-        if best is None or best.inlier_fraction < c.min_inlier_fraction:
+        if best.inlier_fraction < c.min_inlier_fraction:
             self.rejected["inliers"] += 1
             return None
         if len(best.degenerate):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections import Counter
+
 import gtsam
 import numpy as np
 
@@ -41,6 +43,14 @@ class PoseSlam:
         self.scan_stamps: list[float] = []
         self.loops: list[LoopClosure] = []
         self._pending: list[LoopClosure] = []  # verified loops beyond the Mahalanobis gate
+        #: what the system did instead of the normal path, by kind (reported in metrics.json)
+        self.fallbacks: Counter = Counter()
+        #: loop candidates proposed by the gates and verified by registration
+        self.loop_counts: Counter = Counter()
+        #: the largest keyframe displacement a loop closure caused (m)
+        self.largest_correction = 0.0
+        #: front-end matches that could not observe some direction (a featureless corridor)
+        self.degenerate_matches = 0
 
     def step(self, odometry: gtsam.Pose2 | None, scan: LaserScan,
              given: gtsam.Pose2 | None = None) -> Localisation:
@@ -49,13 +59,13 @@ class PoseSlam:
         points = scan.points()
         normals = scan_normals(points, self.config.front_end.registration.normal_max_gap)
         tracked = self.front_end.track(points, odometry)
+        self.degenerate_matches += tracked.match is not None and len(tracked.match.degenerate) > 0
         keyframe = None
         if not self._keyframe_front_pose:
             keyframe = self.graph.add_first(tracked.pose)
         elif self._is_informative(tracked):
             link = self._keyframe_front_pose[-1].between(tracked.pose)
-            floor = np.diag(np.square(self.config.keyframes.between_sigma_floor))
-            keyframe = self.graph.add_keyframe(link, 2.0 * tracked.covariance + floor)
+            keyframe = self.graph.add_keyframe(link, self._link_covariance(tracked.information))
         if keyframe is not None:
             self._keyframe_front_pose.append(tracked.pose)
             self.keyframe_scans.append(scan)
@@ -70,6 +80,19 @@ class PoseSlam:
             self._close_loops(keyframe, result)
         return result
 
+    def _link_covariance(self, information: np.ndarray) -> np.ndarray:
+        """(3, 3) covariance of a keyframe link from the front end's ``information``, halved (the
+        submap it was matched to is uncertain too), plus the motion prior, which constrains any
+        direction neither the scan nor the wheels observed: the link always has full rank. A link
+        whose evidence is weaker than the prior in some direction is counted as a fallback."""
+        c = self.config.keyframes
+        prior = np.diag(1.0 / np.square(c.motion_prior_sigma))
+        evidence = 0.5 * information
+        scale = np.asarray(c.motion_prior_sigma)
+        if np.linalg.eigvalsh(scale[:, None] * evidence * scale[None, :]).min() < 1.0:
+            self.fallbacks["motion_prior_links"] += 1
+        return np.linalg.inv(evidence + prior) + np.diag(np.square(c.between_sigma_floor))
+
     def _is_informative(self, tracked) -> bool:
         """A keyframe when the robot moved enough or the scan sees enough that the submap lacks."""
         c = self.config.keyframes
@@ -83,9 +106,11 @@ class PoseSlam:
         floor = np.diag(np.square(c.sigma_floor))
         self._pending = [p for p in self._pending if p.candidate.k >= k - c.pair_window]
         for candidate in self.detector.candidates(self.graph, k):
+            self.loop_counts["proposed"] += 1
             loop = self.detector.verify(candidate, self.graph, self._features)
             if loop is None:
                 continue
+            self.loop_counts["verified"] += 1
             if loop.mahalanobis > c.mahalanobis_reject:
                 self.detector.rejected["mahalanobis"] += 1
                 continue
@@ -103,9 +128,12 @@ class PoseSlam:
                 covariance = accept.match.covariance + floor
                 moved = self.graph.add_loop(accept.candidate.j, accept.candidate.k, accept.match.pose,
                                             covariance, c.cauchy_k, c.extra_updates)
+                if moved is None:                  # the solver could not take it: left out
+                    continue
                 self.loops.append(accept)
                 result.loops.append(accept)
                 result.moved = max(result.moved, moved)
+                self.largest_correction = max(self.largest_correction, moved)
         if result.loops:
             result.pose = self.pose(len(self.scan_anchor) - 1)
             result.corrected = result.moved > c.moved_threshold

@@ -82,17 +82,24 @@ class Match:
 
     Attributes:
         pose: the scan's pose in the submap frame.
-        covariance: (3, 3) in the pose's tangent space (x, y, θ), from the point-to-line Hessian.
+        information: (3, 3) in the pose's tangent space (x, y, θ): the point-to-line Hessian,
+            plus the prior's information when a prior was given; near zero along a direction
+            the scan cannot observe (a featureless corridor), zero when nothing matched.
         inlier_fraction: share of scan points within ``inlier_distance`` of the submap.
         degenerate: (k, 3) unit tangent directions the scan cannot observe (k = 0 normally).
         sigma: residual standard deviation (m).
     """
 
     pose: gtsam.Pose2
-    covariance: np.ndarray
+    information: np.ndarray
     inlier_fraction: float
     degenerate: np.ndarray
     sigma: float
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """(3, 3) the inverse of ``information`` (regularised by 1e-6 where it has none)."""
+        return np.linalg.inv(self.information + 1e-6 * np.eye(3))
 
 
 class Registration:
@@ -166,8 +173,7 @@ class Registration:
         if prior is None and len(degenerate):
             delta = start.localCoordinates(pose)
             pose = start.retract(delta - degenerate.T @ (degenerate @ delta))
-        covariance = np.linalg.inv(hessian + prior_info + 1e-6 * np.eye(3))
-        return Match(pose, covariance, inliers, degenerate, sigma)
+        return Match(pose, hessian + prior_info, inliers, degenerate, sigma)
 
     def register(self, points: np.ndarray, submap: Submap, guess: gtsam.Pose2,
                  prior: tuple[gtsam.Pose2, np.ndarray] | None = None, start_level: int = 0) -> Match:

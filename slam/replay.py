@@ -38,8 +38,9 @@ def write_replay(out: str | Path, log: LaserLog, result: ReplayResult,
         write_corrected_log(out / "corrected.clf", log, result.trajectory)
     metrics = {"log": str(log.path), **replay_metrics(log, result)}
     if relations is not None:
+        odometry = [r.odometry for r in log]
         error = relation_error(read_relations(relations), result.stamps, result.trajectory,
-                               [r.odometry for r in log], source=str(log.path))
+                               odometry if None not in odometry else None, source=str(log.path))
         metrics["relation_error"] = error.summary()
     write_json_atomic(out / "metrics.json", metrics)
     if figure:
@@ -55,7 +56,10 @@ def write_trajectory_and_graph(out: str | Path, result: ReplayResult) -> None:
 
 
 def replay_metrics(log: LaserLog, result: ReplayResult) -> dict:
-    """What the replay did: scans, keyframes, loop closures (verified, rejected), wall time (s)."""
+    """What the replay did: scans, keyframes, loop closures (proposed by the gates, verified by
+    registration, accepted, and why the others were turned down), front-end matches with an
+    unobservable direction, fallbacks from the normal path, the largest correction a loop made,
+    wall time (s) and the real-time factor (None when the log's stamps span no time)."""
     slam = result.slam
     if isinstance(log, CarmenLog):
         source = {"skipped_lines": len(log.skipped)}
@@ -66,11 +70,15 @@ def replay_metrics(log: LaserLog, result: ReplayResult) -> dict:
         **source,
         "keyframes": len(slam.graph),
         "loop_closures": len(slam.loops),
-        "loop_candidates_verified": slam.detector.tried,
-        "loop_rejections": dict(slam.detector.rejected),
+        "loops": {"proposed": slam.loop_counts["proposed"], "verified": slam.loop_counts["verified"],
+                  "accepted": len(slam.loops), "rejected": dict(slam.detector.rejected)},
+        "degenerate_matches": slam.degenerate_matches,
+        "fallbacks": {**slam.fallbacks, **slam.graph.fallbacks},
+        "largest_correction_m": slam.largest_correction,
         "log_duration_s": log.duration,
         "wall_time_s": result.wall_time,
-        "real_time_factor": log.duration / result.wall_time if result.wall_time > 0 else None,
+        "real_time_factor": (log.duration / result.wall_time
+                             if result.wall_time > 0 and log.duration > 0 else None),
     }
 
 

@@ -106,3 +106,25 @@ def test_real_corrected_log_odometry_is_wheel_odometry(shared_data, name, scans)
     steps = [np.hypot(*(a.pose.between(b.pose).translation() - a.odometry.between(b.odometry).translation()))
              for a, b in zip(log.records[:-1], log.records[1:])]
     assert np.median(steps) < 0.06 and max(steps) < 0.5     # no jumps from missed re-basing
+
+
+def test_a_scan_with_no_odom_line_since_the_last_has_no_odometry(tmp_path):
+    """Örebro's corrected log: ODOM lines only repeat the corrected pose after each scan, with a
+    wheel increment before a few scans. A stale value would claim the robot stood still."""
+    corrected = [gtsam.Pose2(0, 0, 0), gtsam.Pose2(1.5, 0.2, 0.4), gtsam.Pose2(3.0, 0.5, 0.6)]
+    lines = ["ODOM 0 0 0 0 0 0 0 pippo 0\n"]           # as Örebro's log starts
+    for k, c in enumerate(corrected):
+        if k == 2:                                 # a wheel increment before the third scan only
+            odom = corrected[1].compose(gtsam.Pose2(1.4, 0.1, 0.2))
+            lines.append(f"ODOM {odom.x()} {odom.y()} {odom.theta()} 0 0 0 0 pippo 0\n")
+        p = (c.x(), c.y(), c.theta())
+        lines.append(flaser([1.0] * 181, p, p, 0.0))
+        lines.append(f"ODOM {c.x()} {c.y()} {c.theta()} 0 0 0 0 pippo 0\n")
+    path = tmp_path / "o.log"
+    path.write_text("".join(lines))
+    log = CarmenLog(path)
+    assert log.rebased_odometry and log.has_odom_lines
+    assert log[0].odometry.equals(gtsam.Pose2(), 1e-12)
+    assert log[1].odometry is None                  # nothing was logged between scans 0 and 1
+    # the increment before scan 2 chains on from scan 0's odometry (none came in between)
+    assert log[2].odometry.equals(gtsam.Pose2(1.4, 0.1, 0.2), 1e-9)

@@ -1,0 +1,121 @@
+"""Pose SLAM where information is missing: links that nothing observes, a solver that finds its
+system indeterminate, loop candidates without points, a log without odometry or stamps."""
+
+import math
+
+import gtsam
+import numpy as np
+import pytest
+
+from slam.back_end import PoseGraph
+from slam.config import SlamConfig
+from slam.front_end import ScanOdometry
+from slam.loop_closure import Candidate, LoopClosureDetector
+from slam.pose_slam import PoseSlam
+from slam.registration import scan_normals
+from slam.scan import LaserScan
+from wall_scans import cast
+
+CORRIDOR = [(1, 0.0, -50, 50), (1, 2.0, -50, 50)]          # two walls along x, 2 m apart
+LINK = np.diag([0.0077, 0.0104, 0.0104]) ** 2
+
+
+def test_isam2_is_rebuilt_when_its_system_turns_indeterminate():
+    """A link with σ 100 m after links of 1 cm (a failed match without odometry, as on Örebro
+    and the Infinite Corridor) made iSAM2 throw on the next keyframe. The graph rebuilds its
+    solver with QR from every factor, counts it, and the chain stays exact."""
+    graph = PoseGraph()
+    graph.add_first(gtsam.Pose2())
+    step = gtsam.Pose2(0.3, 0.0, 0.01)
+    for _ in range(5):
+        graph.add_keyframe(step, LINK)
+    graph.add_keyframe(step, np.eye(3) * 1e4)
+    for _ in range(5):
+        graph.add_keyframe(step, LINK)
+    assert graph.fallbacks["isam2_rebuilt"] >= 1 and len(graph) == 12
+    expected = gtsam.Pose2()
+    for _ in range(11):
+        expected = expected.compose(step)
+    assert graph.pose(11).equals(expected, 1e-6)      # no loop: the estimate is the chain
+
+
+def test_a_link_nothing_observes_along_the_corridor_gets_the_motion_prior():
+    """No wheel odometry in a featureless corridor: the scan match cannot see motion along x, so
+    the link's σ along x is the motion prior's (1 m), across it the laser's (cm); every such
+    link is counted, and the graph takes them all."""
+    config = SlamConfig()
+    slam = PoseSlam(config)
+    for k in range(8):           # turning 12° each scan makes every scan a keyframe
+        pose = gtsam.Pose2(0.5 * k, 1.0, math.radians(6.0 if k % 2 else -6.0))
+        slam.step(None, cast(pose, CORRIDOR))
+    links = [(j, cov) for _, j, _, cov, loop in slam.graph.edges if not loop]
+    assert len(links) == 7 and slam.fallbacks["motion_prior_links"] == len(links)
+    prior_x = config.keyframes.motion_prior_sigma[0]
+    for j, cov in links:
+        # a link's covariance is in the frame of its second pose (GTSAM's Pose2 tangent space):
+        # turned by scan j's true heading into the corridor's frame
+        heading = math.radians(6.0 if j % 2 else -6.0)
+        c, s = math.cos(heading), math.sin(heading)
+        rotation = np.array([[c, -s], [s, c]])
+        world = rotation @ cov[:2, :2] @ rotation.T
+        assert 0.9 * prior_x < math.sqrt(world[0, 0]) <= math.hypot(prior_x, 0.01) + 1e-6   # prior + floor
+        assert math.sqrt(world[1, 1]) < 0.05
+
+
+def test_with_wheels_the_corridor_axis_follows_the_odometry():
+    """Fusion by information: along the corridor the scan has next to none, so the tracked pose
+    there is the wheels' and so is the information; across it the walls decide."""
+    front = ScanOdometry()
+    start = gtsam.Pose2(0.0, 1.0, 0.0)
+    scan = cast(start, CORRIDOR)
+    points = scan.points()
+    front.track(points, start)
+    front.add_keyframe(front.pose, points, scan_normals(points, 0.3))
+    truth = gtsam.Pose2(0.6, 1.04, 0.02)
+    wheel = gtsam.Pose2(0.55, 1.0, 0.0)               # 5 cm short along x, 4 cm off across
+    tracked = front.track(cast(truth, CORRIDOR).points(), wheel)
+    wheel_info = np.linalg.inv(front.odometry_covariance(start.between(wheel)))
+    assert tracked.pose.x() == pytest.approx(wheel.x(), abs=0.005)       # x from the wheels
+    assert tracked.pose.y() == pytest.approx(truth.y(), abs=0.005)       # y, θ from the walls
+    assert tracked.pose.theta() == pytest.approx(truth.theta(), abs=0.003)
+    # along x the walls add only what their 0.02 rad tilt in the scan frame shows: each of the
+    # ~300 points at most sin²(0.02) / σ_min² = 4, against the wheels' 5900
+    assert wheel_info[0, 0] <= tracked.information[0, 0] < wheel_info[0, 0] + 4 * len(points)
+    assert tracked.information[1, 1] > 20 * wheel_info[1, 1]
+
+
+def test_a_loop_candidate_without_points_is_no_match():
+    """Regression: a keyframe whose scan has no hit (open space beyond range) left every coarse
+    start unscored ("Mean of empty slice") and the best start None, which crashed."""
+    graph = PoseGraph()
+    graph.add_first(gtsam.Pose2())
+    for _ in range(3):
+        graph.add_keyframe(gtsam.Pose2(0.5, 0.0, 0.0), LINK)
+    room = [(0, -1.0, -3, 3), (0, 4.0, -3, 3), (1, -2.0, -1, 4), (1, 2.0, -1, 4)]
+    scans = []
+    for k in range(3):
+        points = cast(gtsam.Pose2(0.5 * k, 0.0, 0.0), room).points()
+        scans.append((points, scan_normals(points, 0.3)))
+    scans.append((np.zeros((0, 2)), np.zeros((0, 2))))
+    detector = LoopClosureDetector(SlamConfig().loop_closure.model_copy(update={"min_keyframe_gap": 1}))
+    predicted, covariance = graph.relative(0, 3)
+    loop = detector.verify(Candidate(0, 3, predicted, covariance, 1.0, 5.0), graph, scans)
+    assert loop is None and detector.rejected["too_few_points"] == 1
+
+
+def test_a_log_with_zero_stamps_and_no_odometry_replays(shared_data):
+    """Örebro: all stamps 0, odometry for 18 of 237 scans. No crash, every scan has a pose, and
+    what replaced the normal path is counted."""
+    from sim.logs import replay_log
+    from slam.carmen import CarmenLog
+    from slam.replay import replay_metrics
+
+    log = CarmenLog(shared_data / "logs" / "orebro-corrected.log.gz")
+    assert sum(r.odometry is None for r in log) > 200 and all(r.scan.timestamp == 0 for r in log)
+    result = replay_log(log)
+    assert len(result.trajectory) == len(log)
+    assert all(np.isfinite([p.x(), p.y(), p.theta()]).all() for p in result.trajectory)
+    metrics = replay_metrics(log, result)
+    assert metrics["real_time_factor"] is None                 # the stamps span no time
+    assert metrics["fallbacks"]["motion_prior_links"] > 0
+    assert metrics["loops"]["accepted"] == metrics["loop_closures"] == len(result.slam.loops)
