@@ -1,9 +1,14 @@
-"""The explorer's goal choice on synthetic maps (both methods)."""
+"""The explorer's goal choice and goal keeping on synthetic maps (both methods)."""
 
 import gtsam
 import numpy as np
+import pytest
 
+from exploration.costmap import CostmapConfig, passable
 from exploration.explorer import Explorer, ExplorerConfig
+from exploration.frontier import frontier_map
+from exploration.goals import GoalConfig
+from exploration.paths import distance_field
 from mapping.occupancy import MapSnapshot
 
 
@@ -29,3 +34,298 @@ def test_grid_explorer_leaves_a_frontier_too_close_to_observe_for_the_rest_of_it
     assert explorer.blacklist.centres                   # the too-close goal was given up
     assert not explorer.blacklist.covers(explorer.target).any()   # it serves the rest
     assert plan.goal[1] < 1.5                            # on the free strip, by the frontier
+
+
+# ---------------------------------------------------------------- synthetic COM snapshots
+#
+# A room on 0.1 m cells (origin (0, 0) at the centre of cell (0, 0)): free interior
+# x in [2.0, 7.9] m, y in [2.0, 5.9] m (cells 20..79 x 20..59), walls two cells (0.2 m) thick
+# around it, unknown space outside. Values as a COM gives them (measured on a simulated room):
+# free space Λ low, Λo = 0.5 (the obstacle GP is trained on hits only, so away from walls its
+# mean is 0 and Λo stays at 0.5); walls high in both; unseen cells 0.5 in both.
+#
+# Why a cell is or is not frontier (eq. 10, F = ‖∇Λ‖₁ − β(‖∇Λo‖₁ + Λo − 0.5), β = 2.5,
+# threshold 0.6, after 0.1 m Gaussian smoothing):
+# - inside the room Λ and Λo are flat and Λo = 0.5: F = 0;
+# - where free space meets a wall, Λ rises by 0.75 and Λo by 0.4 over the same smoothed step:
+#   β·‖∇Λo‖₁ (2.5 x 0.4 = 1.0 per unit of step) and Λo − 0.5 > 0 outweigh ‖∇Λ‖₁ (0.75 per
+#   unit): F <= 0; so too from a wall to unknown space (both fall by 0.4 there);
+# - where free space meets unknown space (beyond an opening), Λ steps 0.15 -> 0.5 with Λo flat
+#   at 0.5: F = ‖∇Λ‖₁ ≈ 0.35 / (√(2π)·0.1 m) ≈ 1.4 per meter on the edge, well above 0.6.
+# So a closed room has no frontier, and an opening's frontier is the free/unknown edge of the
+# space seen through it. (With Λo at 0.3-0.4 in free space instead, the Λo step at an opening
+# cancels the Λ step: F peaks at 0.38 < 0.6 and no opening is a frontier at all.)
+
+RES = 0.1
+FREE, FREE_OCC = 0.15, 0.5
+WALL = 0.9
+UNKNOWN = 0.5
+ROBOT = gtsam.Pose2(3.5, 4.0, 0.0)       # in the left part of the room
+DOOR = (34, 46)                          # door rows: y in [3.4, 4.5] m, 1.2 m wide
+
+
+def room(openings=(), wall=2):
+    """The room's Λ and Λo, with ``openings``: (side, row0, row1, depth) a gap in the left or
+    right wall over rows row0..row1-1 through which free space reaches ``depth`` cells past
+    the wall (what the robot saw through it), unknown around that."""
+    prob = np.full((80, 100), UNKNOWN)
+    occ = np.full((80, 100), UNKNOWN)
+
+    def put(rows, cols, p, o):
+        prob[rows, cols], occ[rows, cols] = p, o
+
+    put(slice(20 - wall, 60 + wall), slice(20 - wall, 80 + wall), WALL, WALL)
+    put(slice(20, 60), slice(20, 80), FREE, FREE_OCC)
+    for side, y0, y1, depth in openings:
+        cols = slice(80, 80 + wall + depth) if side == "right" else slice(20 - wall - depth, 20)
+        put(slice(y0, y1), cols, FREE, FREE_OCC)
+    return MapSnapshot(prob, occ, np.zeros(2), RES)
+
+
+def closed_room():
+    return room()
+
+
+def one_opening():
+    """A 1.2 m door in the right wall (x = 8.0-8.1 m), free space 1 m past it."""
+    return room([("right", *DOOR, 10)])
+
+
+def explored_opening(left_door=False):
+    """The right door now leads into a closet: the space seen through it is walled in; with
+    ``left_door``, the left wall has a door like the one of ``two_openings``."""
+    snapshot = two_openings() if left_door else one_opening()
+    for rows, cols in ((slice(32, 34), slice(80, 94)), (slice(46, 48), slice(80, 94)),
+                       (slice(32, 48), slice(92, 94))):
+        snapshot.prob[rows, cols] = WALL
+        snapshot.prob_occ[rows, cols] = WALL
+    return snapshot
+
+
+def two_openings():
+    """The same door in the left and the right wall: the map is the mirror image of itself."""
+    return room([("right", *DOOR, 10), ("left", *DOOR, 10)])
+
+
+def frontier_points(snapshot, threshold=0.6):
+    """(n, 2) the points (m) of F above the goal threshold."""
+    f = frontier_map(snapshot.prob, snapshot.prob_occ, snapshot.resolution)
+    iy, ix = np.nonzero(f > threshold)
+    return snapshot.origin + snapshot.resolution * np.column_stack([ix, iy])
+
+
+def as_grid(snapshot):
+    """The same map read by the grid method: Λ only."""
+    return MapSnapshot(snapshot.prob, None, snapshot.origin, snapshot.resolution)
+
+
+def passable_cells(snapshot, config):
+    """(h, w) where the robot's centre may go, with the costmap of the config's method."""
+    costmap = config.costmap if config.method == "gp" else config.grid_costmap
+    return passable(snapshot.prob, snapshot.resolution, config.robot_radius, costmap,
+                    snapshot.prob_occ)[0]
+
+
+def path_length(snapshot, start, goal, config):
+    """Length (m) of the shortest path over passable cells from ``start`` to ``goal`` (inf if
+    none)."""
+    ok = passable_cells(snapshot, config)
+    cell = lambda xy: np.round((np.asarray(xy) - snapshot.origin) / snapshot.resolution).astype(int)
+    dist, _ = distance_field(ok, cell(start), snapshot.resolution)
+    ix, iy = cell(goal)
+    return dist[iy, ix]
+
+
+def assert_passable_path(plan, snapshot, config):
+    """The path runs from the robot to the goal over cells the robot's centre may occupy."""
+    assert np.array_equal(plan.path[-1], plan.goal)
+    ok = passable_cells(snapshot, config)
+    cells = np.round((plan.path[1:] - snapshot.origin) / snapshot.resolution).astype(int)
+    assert ok[cells[:, 1], cells[:, 0]].all()
+    steps = np.linalg.norm(np.diff(plan.path[1:], axis=0), axis=1)
+    assert steps.max() <= np.sqrt(2) * RES + 1e-9          # 8-connected, no jumps
+
+
+def test_synthetic_maps_have_frontier_only_beyond_their_openings():
+    """The premise of the tests below, from eq. 10: no frontier in a closed room (its maximum
+    F is exactly 0, on the flat interior); beyond an opening the free/unknown edge is frontier
+    well above the threshold; nothing inside the room is."""
+    f = frontier_map(closed_room().prob, closed_room().prob_occ, RES)
+    assert f.max() == pytest.approx(0.0, abs=1e-12)
+    f = frontier_map(one_opening().prob, one_opening().prob_occ, RES)
+    assert f.max() > 1.2                                   # ≈ 1.4 on the edge, see above
+    points = frontier_points(one_opening())
+    assert len(points) >= 2 * GoalConfig().min_points       # not borderline for min_points
+    assert points[:, 0].min() > 8.1                        # past the wall
+    assert points[:, 0].max() <= 9.2 + 0.15                # around the 1 m of free space seen
+    assert points[:, 1].min() >= 3.4 - 0.15 and points[:, 1].max() <= 4.5 + 0.15
+
+
+def test_closed_room_is_explored():
+    explorer = Explorer(ExplorerConfig())
+    plan = explorer.plan(closed_room(), ROBOT)
+    assert plan.goal is None and plan.done == "frontiers_exhausted"
+    assert not plan.new_goal and plan.clusters == [] and explorer.goal is None
+    assert explorer.blacklist.centres == []                # exhausted by itself, not by blacklisting
+
+
+def test_goal_serves_the_opening_and_is_kept_while_its_frontier_remains():
+    config = ExplorerConfig()
+    explorer = Explorer(config)
+    snapshot = one_opening()
+    plan = explorer.plan(snapshot, ROBOT)
+    assert plan.new_goal and plan.done is None
+    # within reach of the opening's frontier (the only frontier: the free/unknown edge past it)
+    opening = frontier_points(snapshot)
+    assert np.linalg.norm(opening - plan.goal, axis=1).min() <= config.goals.reach + 1e-9
+    assert np.linalg.norm(explorer.target - plan.goal, axis=1).min() <= config.goals.reach + 1e-9
+    assert (explorer.target[:, 0] > 8.1).all()             # it serves points past the wall
+    assert_passable_path(plan, snapshot, config)
+    assert np.array_equal(plan.path[0], [ROBOT.x(), ROBOT.y()])
+    first = plan.goal.copy()
+
+    # a bit along the path, on the same map: the frontier is still there, the goal is kept
+    here = plan.path[len(plan.path) // 2]
+    assert np.linalg.norm(here - [ROBOT.x(), ROBOT.y()]) > 1.0
+    again = explorer.plan(snapshot, gtsam.Pose2(*here, 0.3))
+    assert not again.new_goal and again.clusters == []
+    assert np.array_equal(again.goal, first)
+    assert np.array_equal(again.path[0], here) and np.array_equal(again.path[-1], first)
+    assert explorer.goals_chosen == 1
+
+    # a nearer opening appears (the left door, 1.5 m from the robot against 4.3 m): the goal
+    # is still kept, as its own frontier remains
+    kept = explorer.plan(two_openings(), ROBOT)
+    assert not kept.new_goal and np.array_equal(kept.goal, first)
+
+    # the opening is explored (it leads into a closet): the goal is still reachable, but its
+    # frontier is gone, so it is dropped
+    explored = explored_opening()
+    assert len(frontier_points(explored)) == 0
+    over = explorer.plan(explored, gtsam.Pose2(*here, 0.3))
+    assert over.goal is None and over.done == "frontiers_exhausted" and explorer.goal is None
+    assert np.isfinite(path_length(explored, here, first, ExplorerConfig()))
+
+    # ... even while another frontier remains elsewhere: the left door is the new goal
+    explorer.plan(snapshot, ROBOT)
+    elsewhere = explorer.plan(explored_opening(left_door=True), gtsam.Pose2(*here, 0.3))
+    assert elsewhere.new_goal and elsewhere.goal[0] < 5.0
+
+
+def test_goal_cut_off_by_a_new_wall_is_dropped():
+    """A wall across the room (x = 5 m) between the robot and its goal: the goal is not kept,
+    and the frontier past the door is now out of reach."""
+    explorer = Explorer(ExplorerConfig())
+    plan = explorer.plan(one_opening(), ROBOT)
+    assert plan.goal is not None and plan.goal[0] > 5.0
+    blocked = one_opening()
+    blocked.prob[18:62, 50:52] = WALL
+    blocked.prob_occ[18:62, 50:52] = WALL
+    again = explorer.plan(blocked, ROBOT)
+    assert again.goal is None and again.done == "no_reachable_goal"
+    assert again.clusters and all(k.goal is None and np.isinf(k.distance) for k in again.clusters)
+
+
+def test_nearer_of_two_equal_openings_first_then_the_other_then_done():
+    """Mirror-image doors in the left and right walls give mirror-image frontiers: with one
+    cluster per door (k = ceil(N / points_per_cluster) = 2, the doors' frontiers 6 m apart),
+    the clusters have equal n_i/N and mean F, so eq. 11 ranks them by the square root of the
+    path length alone: the left door, nearer the robot at x = 3.5 m (1.5 m against 4.5 m),
+    wins. Giving up blacklists its frontier; the right door follows; then nothing is left."""
+    config = ExplorerConfig(goals=GoalConfig(points_per_cluster=100))
+    snapshot = two_openings()
+    points = frontier_points(snapshot)
+    left, right = points[points[:, 0] < 5.0], points[points[:, 0] > 5.0]
+    assert len(left) == len(right)                                   # the mirror image
+    assert 50 < len(left) <= 100                                     # hence k = 2
+    explorer = Explorer(config)
+
+    plan = explorer.plan(snapshot, ROBOT)
+    assert plan.new_goal and len(plan.clusters) == 2
+    best, other = plan.clusters
+    assert (best.points[:, 0] < 5.0).all() and (other.points[:, 0] > 5.0).all()
+    assert best.mean_value == pytest.approx(other.mean_value, rel=1e-9)
+    assert best.distance < other.distance
+    assert best.utility - other.utility == pytest.approx(
+        np.sqrt(other.distance) - np.sqrt(best.distance), rel=1e-9)   # eq. 11, equal information
+    assert plan.goal[0] < 5.0
+    assert np.linalg.norm(left - plan.goal, axis=1).min() <= config.goals.reach + 1e-9
+    assert_passable_path(plan, snapshot, config)
+    first = plan.goal.copy()
+
+    explorer.give_up()
+    assert explorer.goal is None
+    assert explorer.blacklist.covers(first).all()
+    assert explorer.blacklist.covers(left).all()             # the whole left frontier is gone
+    assert not explorer.blacklist.covers(right).any()        # the right one untouched
+
+    plan = explorer.plan(snapshot, ROBOT)
+    assert plan.new_goal and plan.goal[0] > 5.0
+    assert np.linalg.norm(right - plan.goal, axis=1).min() <= config.goals.reach + 1e-9
+    assert_passable_path(plan, snapshot, config)
+
+    explorer.give_up()
+    assert explorer.blacklist.covers(points).all()
+    # every frontier point is blacklisted: fewer than min_points remain, exploration is over
+    plan = explorer.plan(snapshot, ROBOT)
+    assert plan.goal is None and plan.done == "frontiers_exhausted"
+    assert explorer.goals_chosen == 2
+
+
+def test_frontier_behind_a_gap_narrower_than_the_robot_is_unreachable():
+    """A 0.3 m gap in a 0.3 m thick right wall (x = 8.0-8.2 m), through which the robot saw a
+    0.3 m wide strip of free space 1.2 m past the wall. The robot (0.5 m across, 0.3 m clearance to occupied cells) cannot
+    pass the gap, so it stays in the room, where the passable cells end at x = 7.7 m, while
+    the frontier points start at x = 8.4 m: farther than the 0.6 m reach. Frontier remains,
+    but no goal can serve it."""
+    config = ExplorerConfig()
+    snapshot = room([("right", 38, 41, 12)], wall=3)
+    points = frontier_points(snapshot)
+    assert len(points) >= config.goals.min_points
+    iy, ix = np.nonzero(passable_cells(snapshot, config))
+    inside = ix < 80
+    assert ix[inside].max() * RES <= 7.7 + 1e-9
+    assert points[:, 0].min() - ix[inside].max() * RES > config.goals.reach
+
+    explorer = Explorer(config)
+    plan = explorer.plan(snapshot, ROBOT)
+    assert plan.goal is None and plan.done == "no_reachable_goal"
+    assert plan.clusters and explorer.goal is None
+    for cluster in plan.clusters:
+        assert cluster.goal is None and np.isinf(cluster.distance) and cluster.utility == -np.inf
+        assert (cluster.points[:, 0] > 8.2).all()
+    assert sum(len(k.points) for k in plan.clusters) == len(points)
+
+
+def test_grid_method_on_the_same_maps_keeps_its_goal_too():
+    """Λ alone, read by the grid method: the closed room has no free cell beside an unknown
+    one; with the door, the frontier region is the free cells past the wall that border
+    unknown space (the 1 m of free space seen through the door: its top row y = 4.5, bottom
+    row y = 3.4 and far column x = 9.1, x from 8.2 m; the door cells at x = 8.0-8.1 m border
+    walls above and below): 30 cells. The goal serves it and is kept from along its path."""
+    config = ExplorerConfig(method="grid")
+    explorer = Explorer(config)
+    plan = explorer.plan(as_grid(closed_room()), ROBOT)
+    assert plan.goal is None and plan.done == "frontiers_exhausted"
+
+    snapshot = as_grid(one_opening())
+    plan = explorer.plan(snapshot, ROBOT)
+    expected = {(ix, 45) for ix in range(82, 92)} | {(ix, 34) for ix in range(82, 92)} \
+        | {(91, iy) for iy in range(35, 45)}
+    assert len(plan.clusters) == 1
+    cells = {tuple(c) for c in np.round(plan.clusters[0].points / RES).astype(int)}
+    assert cells == expected
+    assert plan.new_goal
+    assert np.linalg.norm(plan.clusters[0].points - plan.goal, axis=1).min() <= config.goals.reach + 1e-9
+    assert_passable_path(plan, snapshot, config)
+    first = plan.goal.copy()
+
+    here = plan.path[len(plan.path) // 2]
+    again = explorer.plan(snapshot, gtsam.Pose2(*here, 0.0))
+    assert not again.new_goal and np.array_equal(again.goal, first)
+    assert np.array_equal(again.path[-1], first)
+
+    explored = as_grid(explored_opening())
+    assert np.isfinite(path_length(explored, here, first, config))
+    over = explorer.plan(explored, gtsam.Pose2(*here, 0.0))
+    assert over.goal is None and over.done == "frontiers_exhausted"

@@ -1,0 +1,134 @@
+"""Getting to the goal: the progress monitor, the initial spin, path following and its events."""
+
+import math
+
+import gtsam
+import numpy as np
+import pytest
+
+from exploration.explorer import Plan
+from exploration.follower import FollowerConfig
+from exploration.navigation import Command, NavigationConfig, Navigator, ProgressMonitor
+
+MAX_SPEED, MAX_TURN = 0.5, math.pi / 2      # the spin takes 2π / (π/2) = 4 s
+T0 = 100.0                                  # the first scan's stamp: the spin's clock starts there
+DT = 0.5                                    # scan period; multiples of 0.5 s are exact in binary
+
+
+def ahead_plan():
+    """A goal 2 m straight ahead of a robot at the origin facing +x."""
+    return Plan(np.array([2.0, 0.0]), np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]]), new_goal=True)
+
+
+HERE = gtsam.Pose2(0.0, 0.0, 0.0)
+
+
+# ---------------------------------------------------------------- ProgressMonitor
+
+def test_monitor_is_stuck_on_the_sixth_scan_without_progress():
+    """steps=5, progress=0.2: the first reading sets the best (10 m); readings that stay within
+    0.2 m below it (each 0.03 m less, 9.82 m at worst) count 1, 2, ... scans without progress;
+    the count passes 5 on the 6th such scan."""
+    monitor = ProgressMonitor(steps=5, progress=0.2)
+    assert not monitor.stuck(10.0)
+    results = [monitor.stuck(10.0 - 0.03 * k) for k in range(1, 7)]
+    assert results == [False] * 5 + [True]
+    assert monitor.best == 10.0
+
+
+def test_monitor_counts_progress_against_the_best_not_the_last_reading():
+    """Shrinking 0.15 m a scan never shrinks 0.2 m in one scan, but the second such scan is
+    0.3 m below the best: progress, the count restarts."""
+    monitor = ProgressMonitor(steps=5, progress=0.2)
+    monitor.stuck(10.0)
+    assert not monitor.stuck(9.85) and monitor.since_progress == 1
+    assert not monitor.stuck(9.70) and monitor.since_progress == 0 and monitor.best == 9.70
+
+
+def test_real_progress_restarts_the_count():
+    monitor = ProgressMonitor(steps=5, progress=0.2)
+    monitor.stuck(10.0)
+    assert [monitor.stuck(10.0) for _ in range(5)] == [False] * 5      # 5 scans: not yet stuck
+    assert not monitor.stuck(9.75)                                       # 0.25 m closer
+    assert monitor.best == 9.75 and monitor.since_progress == 0
+    assert [monitor.stuck(9.7) for _ in range(6)] == [False] * 5 + [True]
+
+
+def test_reset_forgets_the_best():
+    """After a reset a reading farther than the old best (a new, farther goal) is progress."""
+    monitor = ProgressMonitor(steps=5, progress=0.2)
+    monitor.stuck(10.0)
+    for _ in range(4):
+        monitor.stuck(10.0)
+    monitor.reset()
+    assert monitor.best == math.inf and monitor.since_progress == 0
+    assert not monitor.stuck(50.0) and monitor.best == 50.0 and monitor.since_progress == 0
+    assert [monitor.stuck(50.0) for _ in range(6)] == [False] * 5 + [True]
+
+
+# ---------------------------------------------------------------- Navigator
+
+def navigator(**config):
+    return Navigator(NavigationConfig(**config), MAX_SPEED, MAX_TURN)
+
+
+def test_initial_spin_lasts_one_turn_then_the_path_is_followed():
+    """From the first stamp T0, turn at the top rate while stamp < T0 + 2π/max_turn_rate
+    (T0 + 4 s: stamps T0 .. T0 + 3.5 s, 8 scans); then follow the path: the carrot 0.4 m ahead
+    on a straight path is dead ahead, so w = 0 and v = min(top speed, 2 m to go) = 0.5 m/s."""
+    nav = navigator()
+    stamps = T0 + DT * np.arange(10)
+    commands = [nav.command(HERE, ahead_plan(), t) for t in stamps]
+    assert commands[:8] == [Command(0.0, MAX_TURN)] * 8
+    assert [nav.spinning(t) for t in stamps] == [True] * 8 + [False] * 2
+    for c in commands[8:]:
+        assert c.event is None
+        assert c.v == pytest.approx(MAX_SPEED, abs=1e-12) and c.w == pytest.approx(0.0, abs=1e-12)
+
+
+def test_spin_ignores_the_plan():
+    """While spinning, no goal (exploration over) and a goal both give the turn; after it, no
+    goal gives a standstill."""
+    nav = navigator()
+    assert nav.command(HERE, Plan(None, done="frontiers_exhausted"), T0) == Command(0.0, MAX_TURN)
+    assert nav.command(HERE, ahead_plan(), T0 + 3.5) == Command(0.0, MAX_TURN)
+    assert nav.command(HERE, Plan(None, done="frontiers_exhausted"), T0 + 4.0) == Command(0.0, 0.0)
+
+
+def test_without_initial_spin_the_first_command_follows_the_path():
+    nav = navigator(initial_spin=False)
+    assert not nav.spinning(T0)
+    c = nav.command(HERE, ahead_plan(), T0)
+    assert c.v == pytest.approx(MAX_SPEED, abs=1e-12) and c.w == pytest.approx(0.0, abs=1e-12)
+    assert nav.command(HERE, Plan(None, done="no_reachable_goal"), T0 + DT) == Command(0.0, 0.0)
+
+
+def test_goal_within_the_follower_tolerance_is_reached():
+    """Tolerance 0.15 m: 0.1 m short of the goal it is reached; 0.2 m short it is not (the
+    follower slows to the 0.2 m left)."""
+    nav = navigator(initial_spin=False, follower=FollowerConfig(tolerance=0.15))
+    assert nav.command(gtsam.Pose2(1.9, 0.0, 0.0), ahead_plan(), T0) == Command(0.0, 0.0, "reached")
+    short = nav.command(gtsam.Pose2(1.8, 0.0, 0.0), ahead_plan(), T0 + DT)
+    assert short.event is None and short.v == pytest.approx(0.2, abs=1e-9)
+
+
+def test_standing_still_in_front_of_the_goal_is_stuck():
+    """stuck_steps = 3: the first scan sets the best (2 m to go); the robot does not move, so
+    scans 2, 3, 4 count 1, 2, 3 scans without progress, and scan 5 (the 4th = stuck_steps + 1
+    after the first) is stuck. A new goal starts the count afresh."""
+    nav = navigator(initial_spin=False, stuck_steps=3, stuck_progress=0.2)
+    events = [nav.command(HERE, ahead_plan(), T0 + DT * k).event for k in range(5)]
+    assert events == [None] * 4 + ["stuck"]
+    stuck = nav.command(HERE, ahead_plan(), T0 + 5 * DT)
+    assert stuck == Command(0.0, 0.0, "stuck")                   # still stuck: no progress since
+    nav.new_goal()
+    events = [nav.command(HERE, ahead_plan(), T0 + DT * k).event for k in range(6, 11)]
+    assert events == [None] * 4 + ["stuck"]
+
+
+def test_stuck_count_waits_for_the_spin():
+    """The monitor is not fed while spinning: a robot that spins 4 s then stands still is stuck
+    only stuck_steps + 1 scans after the first scan following the spin."""
+    nav = navigator(stuck_steps=3, stuck_progress=0.2)
+    events = [nav.command(HERE, ahead_plan(), T0 + DT * k).event for k in range(13)]
+    assert events == [None] * 12 + ["stuck"]
