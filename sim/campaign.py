@@ -63,6 +63,23 @@ class WorldSpec:
         return load_world(self.spec, size=self.size, resolution=self.resolution)
 
 
+def world_spec(world: str, radius: float, start: tuple[float, float, float] | None = None,
+               size: tuple[float, float] | None = None, resolution: float | None = None) -> WorldSpec:
+    """A campaign's world, checked here (it loads, a robot of ``radius`` m fits at its start:
+    ``start``, else the built-in or a free corner's) and loaded again by each worker. ``size``
+    and ``resolution`` apply to a bitmap only, so that one of each serves a list of mixed worlds.
+
+    Raises FileNotFoundError or ValueError for a world that does not load, ``StartError`` for a
+    start that is not free."""
+    from sim.world_io import has_own_scale, load_world, start_pose
+
+    if has_own_scale(world):
+        size = resolution = None
+    spec = world if world in BUILTIN_WORLDS else str(Path(world).absolute())
+    pose = start_pose(world, load_world(world, size, resolution), radius, start)
+    return WorldSpec(spec, (pose.x(), pose.y(), pose.theta()), size, resolution)
+
+
 @dataclass(frozen=True)
 class Run:
     """One run of a campaign, plain data that pickles cheaply: the world is loaded by the worker."""
@@ -151,6 +168,17 @@ def run_campaign(runs: list[Run], engine, on_end=None) -> dict[str, int]:
     return summary
 
 
+def run_line(run: Run, metrics: dict | None, error: str | None) -> str:
+    """How a run ended, in one line (for ``run_campaign``'s ``on_end``): how it stopped, its
+    travel, coverage and wall time, or the last line of its traceback."""
+    name = f"{run.world.name} {run.method} seed {run.seed}"
+    if error is not None:
+        return f"{name} failed: {error.strip().splitlines()[-1]}"
+    m = metrics
+    return (f"{name}: {m['termination_reason']}, {m['travel_distance_m']:.1f} m, coverage "
+            f"{100 * m['coverage']:.1f} %, {m['wall_time_s']:.1f} s wall")
+
+
 def results(runs: list[Run]) -> dict[str, dict[str, list[dict]]]:
     """Metrics of the finished runs by world and method, in the order of ``runs``."""
     return _finished_by_world_and_method(runs, lambda folder: json.loads((folder / "metrics.json").read_text()))
@@ -213,30 +241,39 @@ def cell(value: dict, runs: int) -> str:
     return f"{value['mean']:.4g} ± {value['stderr']:.2g}" + (f" (n={value['n']})" if value["n"] < runs else "")
 
 
-def write_tables(out: str | Path, runs: list[Run]) -> dict[str, list[dict]]:
-    """``table.md`` (Table I per world) and ``table.csv`` (world, metric, method, mean, stderr,
-    n) in ``out`` from the finished runs; returns the rows by world."""
-    out = Path(out)
+def table_markdown(runs: list[Run]) -> str:
+    """Table I per world in Markdown, from the finished runs: a row per metric, a column per
+    method (mean ± standard error, with the number of runs where some are missing), then how
+    many runs finished or failed and how they ended. ``table.md`` holds it."""
     planned = Counter((r.world.name, r.method) for r in runs)
     lost = Counter((r.world.name, r.method) for r in runs if failed(r))
-    md, rows_by_world = [], {}
-    text = io.StringIO()
-    sheet = csv.writer(text, lineterminator="\n")
-    sheet.writerow(["world", "metric", "method", "mean", "stderr", "n"])
+    md = ["# Table I: mean ± standard error over seeds", ""]
     for world, by_method in results(runs).items():
         methods = list(by_method)
-        rows = rows_by_world[world] = table(by_method)
         md += [f"## {world}", "", "| metric | " + " | ".join(methods) + " |", "|---|" + "---:|" * len(methods)]
-        for row in rows:
+        for row in table(by_method):
             md.append(f"| {row['metric']} | " + " | ".join(cell(row[m], planned[world, m]) for m in methods) + " |")
-            sheet.writerows([world, row["metric"], m, _csv_number(row[m]["mean"]),
-                             _csv_number(row[m]["stderr"]), row[m]["n"]] for m in methods)
         finished_runs = ", ".join(f"{m} {len(by_method[m])}/{planned[world, m]}"
                                   + (f" ({lost[world, m]} failed)" if lost[world, m] else "") for m in methods)
         ended = "; ".join(f"{m}: " + ", ".join(f"{reason} {n}" for reason, n in reasons.items())
                           for m, reasons in termination_counts(by_method).items() if reasons)
         md += ["", f"Runs finished: {finished_runs}. Ended: {ended or 'none yet'}.", ""]
-    write_text_atomic(out / "table.md", "# Table I: mean ± standard error over seeds\n\n" + "\n".join(md))
+    return "\n".join(md)
+
+
+def write_tables(out: str | Path, runs: list[Run]) -> dict[str, list[dict]]:
+    """``table.md`` (``table_markdown``) and ``table.csv`` (world, metric, method, mean, stderr,
+    n) in ``out`` from the finished runs; returns Table I's rows by world."""
+    out = Path(out)
+    rows_by_world = {world: table(by_method) for world, by_method in results(runs).items()}
+    text = io.StringIO()
+    sheet = csv.writer(text, lineterminator="\n")
+    sheet.writerow(["world", "metric", "method", "mean", "stderr", "n"])
+    for world, rows in rows_by_world.items():
+        for row in rows:
+            sheet.writerows([world, row["metric"], m, _csv_number(v["mean"]), _csv_number(v["stderr"]), v["n"]]
+                            for m, v in row.items() if m != "metric")
+    write_text_atomic(out / "table.md", table_markdown(runs))
     write_text_atomic(out / "table.csv", text.getvalue())
     return rows_by_world
 

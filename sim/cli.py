@@ -1,46 +1,60 @@
-"""The `gpexplore` command line: parse, build, run with a progress bar, write results."""
+"""The `gpexplore` command line: parse, build, run with a progress bar, write results.
+
+The options several commands share, and their validation, are in ``sim.cli_options``; what the
+commands run is in the library (``sim.episode``, ``sim.campaign``, ``sim.logs``, ``sim.tour``).
+"""
 
 from __future__ import annotations
 
-import math
-import time
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Optional
+from typing import Annotated, Optional
 
-import gtsam
-import numpy as np
 import typer
 from rich.console import Console
+from rich.markup import escape
+
+from sim.cli_options import (Builtin, Config, Engine, Log, LogPoses, MaxSteps, Method, MethodOption,
+                             Methods, OdomTopic, Out, Poses, PosesOption, Resolution, ScanTopic, Seed, Seeds,
+                             Size, Solver, Start, World, WorldArgument, Worlds, episode_config, fraction,
+                             numbers, positive)
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Autonomous exploration on continuous Gaussian-process frontier maps.")
 console = Console()
-LOG_HELP = ("CARMEN log (.clf/.log, optionally .gz) or ROS bag (ROS 1 .bag; ROS 2 bag directory, "
-            ".db3 or .mcap)")
-SCAN_TOPIC_HELP = "ROS bags: the sensor_msgs/LaserScan topic (default: the only one, or /scan)"
-ODOM_TOPIC_HELP = "ROS bags: the nav_msgs/Odometry topic (default: the only one, or /odom)"
+
+#: Steps between animation frames for ``explore --animate`` when the configuration sets none.
+ANIMATE_EVERY = 10
 
 
-def _load(world: str, size, resolution):
-    from sim.world_io import load_world
+@contextmanager
+def _world_errors(option: str = "--world"):
+    """A world that does not load is a usage error of ``option``; a start that is not free, of --start."""
+    from sim.world_io import StartError
 
     try:
-        return load_world(world, size=size, resolution=resolution)
+        yield
+    except StartError as err:
+        raise typer.BadParameter(str(err), param_hint="'--start'") from None
     except (ValueError, FileNotFoundError) as err:
-        raise typer.BadParameter(str(err), param_hint="--world") from None
+        raise typer.BadParameter(str(err), param_hint=f"'{option}'") from None
 
 
 @app.command()
 def world(
-    world: str = typer.Argument("cave", help="built-in name (cave, office), bitmap or ROS .yaml"),
-    size: Optional[tuple[float, float]] = typer.Option(None, help="bitmap size in meters: --size W H"),
-    resolution: Optional[float] = typer.Option(None, help="bitmap resolution, m/pixel"),
-    start: Optional[tuple[float, float]] = typer.Option(None, help="start X Y (m) for the reachable area"),
-    radius: float = typer.Option(0.25, help="robot radius, m"),
-    out: Optional[Path] = typer.Option(None, help="write a figure of the world here (PNG)"),
+    world: WorldArgument = "cave",
+    size: Size = None,
+    resolution: Resolution = None,
+    start: Annotated[Optional[tuple[float, float]], typer.Option(
+        parser=numbers("--start X Y"), metavar="X Y", help="start X Y (m) for the reachable area")] = None,
+    radius: Annotated[float, typer.Option(callback=positive, help="robot radius, m")] = 0.25,
+    out: Annotated[Optional[Path], typer.Option(dir_okay=False, help="write a figure of the world here (PNG)")] = None,
 ):
     """Load a world and print its frame, size and, from a start, the reachable free area."""
-    w = _load(world, size, resolution)
+    from sim.world_io import load_world
+
+    with _world_errors():
+        w = load_world(world, size=size, resolution=resolution)
     (rx, ry), (width, height) = w.resolution, w.size
     console.print(f"{w.name}: {w.shape[1]} x {w.shape[0]} cells of {rx:.4g} x {ry:.4g} m, "
                   f"{width:.3f} x {height:.3f} m, origin {w.origin}")
@@ -49,7 +63,7 @@ def world(
         try:
             area = w.reachable(start, radius).sum() * rx * ry
         except ValueError as err:
-            raise typer.BadParameter(str(err), param_hint="--start") from None
+            raise typer.BadParameter(str(err), param_hint="'--start'") from None
         console.print(f"reachable free space from {start}: {area:.1f} m²")
     if out:
         import matplotlib.pyplot as plt
@@ -64,73 +78,49 @@ def world(
 
 @app.command()
 def demo(
-    out: Path = typer.Option(Path("results/demo"), help="output directory"),
-    world: str = typer.Option("cave", help="built-in world with a demo tour: cave or office"),
-    seed: int = typer.Option(0, help="seed for lidar and odometry noise"),
+    out: Out = Path("results/demo"),
+    world: Annotated[Builtin, typer.Option(help="built-in world whose scripted tour to drive")] = Builtin("cave"),
+    seed: Seed = 0,
 ):
     """Drive the robot along the built-in world's scripted tour and write truth, odometry and a figure."""
     from sim.figures import tour_figure
-    from sim.lidar import Lidar
-    from sim.odometry import Odometry
-    from sim.robot import Robot
-    from sim.tour import drive_tour
+    from sim.tour import demo_tour
     from sim.worlds import BUILTIN_WORLDS
     from slam.atomic import write_json_atomic
     from slam.tum import write_tum
 
-    if world not in BUILTIN_WORLDS:
-        raise typer.BadParameter(f"no built-in world '{world}' (have: {', '.join(BUILTIN_WORLDS)})",
-                                 param_hint="--world")
-    builtin = BUILTIN_WORLDS[world]()
-    rng = np.random.SeedSequence(seed)
-    lidar_seed, odom_seed = rng.spawn(2)
-    robot = Robot(builtin.world, builtin.start)
-    lidar = Lidar(seed=lidar_seed)
-    odometry = Odometry(seed=odom_seed)
-    tic = time.perf_counter()
-    log = drive_tour(robot, lidar, odometry, builtin.tour, progress=True)
-    wall = time.perf_counter() - tic
+    builtin = BUILTIN_WORLDS[world.value]()
+    log, m = demo_tour(builtin, seed, progress=True)
     write_tum(out / "ground_truth.tum", log.stamps, log.truth)
     write_tum(out / "odometry.tum", log.stamps, log.odometry)
-    start = log.truth[0]
-    drift = [np.hypot(*(start.compose(log.odometry[0].between(o)).translation() - t.translation()))
-             for o, t in zip(log.odometry, log.truth)]
-    metrics = {
-        "world": builtin.world.name,
-        "seed": seed,
-        "start": [start.x(), start.y(), start.theta()],
-        "steps": len(log.scans),
-        "travel_distance_m": robot.distance,
-        "sim_time_s": log.stamps[-1],
-        "wall_time_s": wall,
-        "collisions": robot.collisions,
-        "final_odometry_drift_m": float(drift[-1]),
-        "max_odometry_drift_m": float(max(drift)),
-    }
-    write_json_atomic(out / "metrics.json", metrics)
+    write_json_atomic(out / "metrics.json", m)
     tour_figure(out / "figures" / "tour.png", builtin.world, log)
-    console.print(f"{metrics['steps']} scans, {robot.distance:.1f} m in {log.stamps[-1]:.0f} s of robot "
-                  f"time ({wall:.1f} s wall), {robot.collisions} collisions, odometry drift "
-                  f"{drift[-1]:.2f} m at the end")
+    console.print(f"{m['steps']} scans, {m['travel_distance_m']:.1f} m in {m['sim_time_s']:.0f} s of robot "
+                  f"time ({m['wall_time_s']:.1f} s wall), {m['collisions']} collisions, odometry drift "
+                  f"{m['final_odometry_drift_m']:.2f} m at the end")
     console.print(f"results in {out}/: metrics.json, ground_truth.tum, odometry.tum, figures/tour.png")
 
 
 @app.command("map")
 def map_(
-    log: Path = typer.Argument(..., help=LOG_HELP),
-    poses: str = typer.Option("log", help="log: the log's poses (a bag's odometry); slam: the SLAM replay"),
-    out: Path = typer.Option(Path("results/map"), help="output directory"),
-    config: Optional[Path] = typer.Option(None, help="configuration (TOML): its [stack.com] and, with "
-                                          "--poses slam, [stack.slam] sections"),
-    max_range: Optional[float] = typer.Option(None, help="mapping range, m: farther hits count as no "
-                                              "return (default: stack.com.training.max_range, 10)"),
-    holdout: float = typer.Option(0.0, help="fraction of each scan's labelled points held out for the AUC"),
-    every: int = typer.Option(1, help="map every n-th scan (SLAM still uses them all)"),
-    scan_topic: Optional[str] = typer.Option(None, help=SCAN_TOPIC_HELP),
-    odom_topic: Optional[str] = typer.Option(None, help=ODOM_TOPIC_HELP),
+    log: Log,
+    poses: Annotated[LogPoses, typer.Option(
+        help="log: the log's own poses (a bag's odometry); slam: the SLAM replay's")] = LogPoses.log,
+    out: Out = Path("results/map"),
+    config: Config = None,
+    max_range: Annotated[Optional[float], typer.Option(
+        callback=positive, help="mapping range, m: farther hits count as no return "
+        "(default: the configuration's stack.com.training.max_range, 10)")] = None,
+    holdout: Annotated[float, typer.Option(
+        callback=fraction, help="fraction in [0, 1) of each scan's labelled points held out for the AUC")] = 0.0,
+    every: Annotated[int, typer.Option(min=1, help="map every n-th scan (SLAM still uses them all)")] = 1,
+    scan_topic: ScanTopic = None,
+    odom_topic: OdomTopic = None,
 ):
     """Build the continuous occupancy map of a log: com.npz, map.pgm/yaml, metrics.json, figure;
     with --poses slam also the replay's trajectory.tum and graph.g2o; config.toml, the configuration used."""
+    import numpy as np
+
     from mapping.export import save_com, write_ros_map
     from mapping.figure import com_figure
     from sim.config_file import CONFIG_NAME, write_config
@@ -138,20 +128,12 @@ def map_(
     from slam.atomic import write_json_atomic
     from slam.replay import replay_metrics, write_trajectory_and_graph
 
-    if poses not in ("log", "slam"):
-        raise typer.BadParameter(f"unknown pose source '{poses}' (have: log, slam)", param_hint="--poses")
-    if not 0 <= holdout < 1:
-        raise typer.BadParameter(f"{holdout} is not a fraction in [0, 1)", param_hint="--holdout")
-    if max_range is not None and not (max_range > 0 and math.isfinite(max_range)):
-        raise typer.BadParameter(f"{max_range} m is not a positive finite range", param_hint="--max-range")
-    if every < 1:
-        raise typer.BadParameter(f"{every} is not a scan stride (1 or more)", param_hint="--every")
-    cfg = _episode_config(config)
+    cfg = episode_config(config)
     if max_range is not None:
         cfg.stack.com.training.max_range = max_range
     records = _open_log(log, scan_topic=scan_topic, odom_topic=odom_topic)
-    run = map_log(records, poses, cfg.stack.com, cfg.stack.slam, every, holdout, progress=True)
-    metrics = {"log": str(log), "poses": poses}
+    run = map_log(records, poses.value, cfg.stack.com, cfg.stack.slam, every, holdout, progress=True)
+    metrics = {"log": str(log), "poses": poses.value}
     if run.replay is not None:
         write_trajectory_and_graph(out, run.replay)
         metrics["slam"] = replay_metrics(records, run.replay)
@@ -169,46 +151,47 @@ def map_(
                   f"{m['update_ms_median']:.1f} ms, p95 {m['update_ms_p95']:.1f} ms); AUC {m['auc']:.4f} "
                   f"read continuously (bilinear), {m['auc_cell']:.4f} read per cell "
                   f"({m['holdout']['protocol']}); entropy {m['entropy_nats_0.2m']:.0f} nats")
-    products = "com.npz, map.pgm, map.yaml, metrics.json, config.toml, figures/com.png"
-    if poses == "slam":
-        products += ", trajectory.tum, graph.g2o"
-    console.print(f"results in {out}/: {products}")
+    slam_products = ", trajectory.tum, graph.g2o" if run.replay is not None else ""
+    console.print(f"results in {out}/: com.npz, map.pgm, map.yaml, metrics.json, config.toml, "
+                  f"figures/com.png{slam_products}")
 
 
 @app.command()
 def replay(
-    log: Path = typer.Argument(..., help=LOG_HELP),
-    relations: Optional[Path] = typer.Option(None, help="Kümmerle .relations file to score against"),
-    out: Path = typer.Option(Path("results/replay"), help="output directory"),
-    config: Optional[Path] = typer.Option(None, help="configuration (TOML): its [stack.slam] section"),
-    max_range: float = typer.Option(80.0, help="readings at or beyond this (m) are no return"),
-    skip_malformed: bool = typer.Option(False, help="skip malformed lines (counted) instead of failing"),
-    scan_topic: Optional[str] = typer.Option(None, help=SCAN_TOPIC_HELP),
-    odom_topic: Optional[str] = typer.Option(None, help=ODOM_TOPIC_HELP),
+    log: Log,
+    relations: Annotated[Optional[Path], typer.Option(
+        exists=True, dir_okay=False, help="Kümmerle .relations file to score against")] = None,
+    out: Out = Path("results/replay"),
+    config: Config = None,
+    max_range: Annotated[float, typer.Option(
+        callback=positive, help="readings at or beyond this (m) are no return")] = 80.0,
+    skip_malformed: Annotated[bool, typer.Option(
+        help="skip malformed lines (counted) instead of failing")] = False,
+    scan_topic: ScanTopic = None,
+    odom_topic: OdomTopic = None,
 ):
     """Run Pose SLAM over a CARMEN log or ROS bag; write trajectory.tum, graph.g2o, metrics.json,
     config.toml (the configuration used) and, for a CARMEN log, corrected.clf."""
     from sim.config_file import CONFIG_NAME, write_config
+    from sim.logs import replay_log
     from slam.carmen import CarmenLog
     from slam.evaluation import RelationsError
-    from sim.logs import replay_log
     from slam.replay import write_replay
 
-    cfg = _episode_config(config)
+    cfg = episode_config(config)
     records = _open_log(log, max_range, skip_malformed, scan_topic, odom_topic)
     result = replay_log(records, cfg.stack.slam, progress=True)
     write_config(out / CONFIG_NAME, cfg)
     try:
         metrics = write_replay(out, records, result, relations)
-    except (RelationsError, FileNotFoundError) as err:
-        console.print(f"[red]error:[/red] {err}")
+    except RelationsError as err:
+        console.print(f"[red]error:[/red] {escape(str(err))}")
         raise typer.Exit(2) from None
     console.print(_replay_summary(metrics))
-    if "relation_error" in metrics:
-        for name, e in metrics["relation_error"].items():
-            if isinstance(e, dict) and e["n"]:
-                console.print(f"relation error {name} (n={e['n']}): {e['trans_mean_m']:.4f} ± {e['trans_std_m']:.4f} m, "
-                              f"{e['rot_mean_deg']:.3f} ± {e['rot_std_deg']:.3f} deg")
+    for name, e in metrics.get("relation_error", {}).items():
+        if isinstance(e, dict) and e["n"]:
+            console.print(f"relation error {name} (n={e['n']}): {e['trans_mean_m']:.4f} ± {e['trans_std_m']:.4f} m, "
+                          f"{e['rot_mean_deg']:.3f} ± {e['rot_std_deg']:.3f} deg")
     corrected = "corrected.clf, " if isinstance(records, CarmenLog) else ""
     console.print(f"results in {out}/: trajectory.tum, graph.g2o, {corrected}metrics.json, config.toml, trajectory.png")
 
@@ -216,15 +199,13 @@ def replay(
 def _open_log(path: Path, max_range: float = 80.0, skip_malformed: bool = False,
               scan_topic: Optional[str] = None, odom_topic: Optional[str] = None):
     """The laser records of a CARMEN log or, by its path, a ROS bag; a bad one exits 2 with the reason."""
-    from rich.markup import escape
-
     from slam.carmen import CarmenLog, LogFormatError
     from slam.rosbag import BagError, RosBag, is_bag
 
     bag = is_bag(path)
     if not bag and (scan_topic or odom_topic):
         raise typer.BadParameter(f"{path} is a CARMEN log, topics are for ROS bags",
-                                 param_hint="--scan-topic" if scan_topic else "--odom-topic")
+                                 param_hint="'--scan-topic'" if scan_topic else "'--odom-topic'")
     try:
         if bag:
             records = RosBag(path, scan_topic, odom_topic, max_range=max_range)
@@ -241,38 +222,46 @@ def _open_log(path: Path, max_range: float = 80.0, skip_malformed: bool = False,
 
 
 def _replay_summary(metrics: dict) -> str:
-    """One line from a replay's metrics: scans, keyframes, loop closures, wall time."""
+    """One line from a replay's metrics: scans, keyframes, loop closures, wall time, fallbacks."""
+    rtf = metrics["real_time_factor"]
+    speed = f"{rtf:.1f}x real time" if rtf is not None else "no real-time factor: the log's stamps are broken"
+    fallbacks = metrics["fallbacks"]
     return (f"SLAM: {metrics['scans']} scans, {metrics['keyframes']} keyframes, {metrics['loop_closures']} "
-            f"loop closures in {metrics['wall_time_s']:.1f} s ({metrics['real_time_factor']:.1f}x real time)")
+            f"loop closures in {metrics['wall_time_s']:.1f} s ({speed})"
+            + (f"; fallbacks: {', '.join(f'{k} {v}' for k, v in fallbacks.items())}" if fallbacks else ""))
 
 
 @app.command()
 def posegraph(
-    graph: Path = typer.Argument(..., help="2-D g2o pose graph (VERTEX_SE2 / EDGE_SE2)"),
-    out: Optional[Path] = typer.Option(None, help="write the optimised graph here (g2o)"),
-    method: str = typer.Option("dogleg", help="GTSAM stage: dogleg or lm (both QR)"),
-    frame_i_residual: bool = typer.Option(False, help="minimise χ² with the translation residual left in "
-                                          "frame i (the definition of SOURCES.md's reference minima)"),
+    graph: Annotated[Path, typer.Argument(
+        exists=True, dir_okay=False, metavar="GRAPH", help="2-D g2o pose graph (VERTEX_SE2 / EDGE_SE2)")],
+    out: Annotated[Optional[Path], typer.Option(dir_okay=False, help="write the optimised graph here (g2o)")] = None,
+    method: Annotated[Solver, typer.Option(help="GTSAM stage: dogleg or lm (both QR)")] = Solver.dogleg,
+    frame_i_residual: Annotated[bool, typer.Option(
+        help="minimise χ² with the translation residual left in frame i instead of rotated into the "
+        "measurement's frame as g2o's EdgeSE2 does (the definition under which the published "
+        "minima of the standard 2-D pose graphs were computed; the same for isotropic information)")] = False,
 ):
     """Optimise a 2-D g2o pose graph and print χ² before and after.
 
     GTSAM (dog-leg or Levenberg–Marquardt, QR) then Levenberg–Marquardt on g2o's exact χ².
     """
+    import time
+
     from slam.g2o import G2oFormatError, chi2, optimize_g2o, read_g2o, write_g2o
 
     try:
         g = read_g2o(graph)
     except (G2oFormatError, OSError) as err:
-        console.print(f"[red]error:[/red] {err}")
+        console.print(f"[red]error:[/red] {escape(str(err))}")
         raise typer.Exit(2) from None
-    if method not in ("dogleg", "lm"):
-        raise typer.BadParameter("dogleg or lm", param_hint="--method")
-    before = chi2(g, g.poses, rotated=not frame_i_residual)
+    rotated = not frame_i_residual
+    before = chi2(g, g.poses, rotated=rotated)
     tic = time.perf_counter()
-    poses, iterations = optimize_g2o(g, method=method, rotated=not frame_i_residual)
+    poses, iterations = optimize_g2o(g, method=method.value, rotated=rotated)
     wall = time.perf_counter() - tic
-    after = chi2(g, poses, rotated=not frame_i_residual)
-    name = "chi2 (translation residual in frame i)" if frame_i_residual else "chi2 (g2o EdgeSE2)"
+    after = chi2(g, poses, rotated=rotated)
+    name = "chi2 (g2o EdgeSE2)" if rotated else "chi2 (translation residual in frame i)"
     console.print(f"{graph.name}: {len(g.poses)} poses, {len(g.edges)} edges")
     console.print(f"{name}: {before:.6g} -> {after:.9g}")
     console.print(f"2 x GTSAM error at the result: {2 * g.factor_graph().error(g.values_of(poses)):.9g}")
@@ -282,71 +271,61 @@ def posegraph(
         console.print(f"optimised graph: {out}")
 
 
-def _episode_config(path: Optional[Path]):
-    """The whole configuration (EpisodeConfig) in ``path``, TOML or YAML by suffix; defaults
-    without one. A bad file is exit code 2 with the file, the dotted key and the problem."""
-    from sim.config_file import ConfigError, read_config
-    from sim.episode import EpisodeConfig
-
+def _rerun_file(path: Optional[Path]) -> Optional[Path]:
+    """``--rerun``: a .rrd file, and the Rerun SDK to write it."""
     if path is None:
-        return EpisodeConfig()
+        return None
+    if path.suffix != ".rrd":
+        raise typer.BadParameter(f"{path}: a Rerun recording is a .rrd file")
     try:
-        return read_config(path)
-    except ConfigError as err:
-        raise typer.BadParameter(str(err), param_hint="--config") from None
+        import rerun  # noqa: F401
+    except ImportError:
+        raise typer.BadParameter("no Rerun SDK: pip install gpexplore[viz]") from None
+    return path
 
 
-def _world_and_start(world: str, size, resolution, start, radius: float):
-    from sim.worlds import BUILTIN_WORLDS, corner_start
-
-    w = _load(world, size, resolution)
-    if start is not None:
-        pose = gtsam.Pose2(*start)
-    elif world in BUILTIN_WORLDS:
-        pose = BUILTIN_WORLDS[world]().start
-    else:
-        pose = corner_start(w, radius)
-    if w.collides((pose.x(), pose.y()), radius):
-        raise typer.BadParameter(f"start ({pose.x():.2f}, {pose.y():.2f}) is not free for a robot of "
-                                 f"radius {radius} m", param_hint="--start")
-    return w, pose
-
-
-#: Steps between animation frames for ``explore --animate`` when the configuration sets none.
-ANIMATE_EVERY = 10
+def _config_for(cfg, method: Optional[Method], poses: Optional[Poses], max_steps: Optional[int]):
+    """``cfg`` with the options given on the command line (None keeps the configuration's)."""
+    return cfg.overridden(method and method.value, poses and poses.value, max_steps)
 
 
 @app.command()
 def explore(
-    world: str = typer.Option("cave", help="built-in name (cave, office), bitmap or ROS .yaml"),
-    size: Optional[tuple[float, float]] = typer.Option(None, help="bitmap size in meters: --size W H"),
-    resolution: Optional[float] = typer.Option(None, help="bitmap resolution, m/pixel"),
-    start: Optional[tuple[float, float, float]] = typer.Option(
-        None, help="start X Y THETA (m, m, rad); default: the built-in start or a free corner"),
-    method: Optional[str] = typer.Option(None, help="gp (C-frontier on the COM) or grid (nearest "
-                                         "frontier); default: stack.explorer.method, gp"),
-    poses: Optional[str] = typer.Option(None, help="slam (Pose SLAM) or truth (perfect localisation); "
-                                        "default: stack.poses, slam"),
-    seed: int = typer.Option(0, help="seed of every random draw"),
-    max_steps: Optional[int] = typer.Option(None, help="scans before the run stops; default: max_steps"),
-    config: Optional[Path] = typer.Option(None, help="configuration (TOML, see `gpexplore config dump`)"),
-    out: Path = typer.Option(Path("results/explore"), help="output directory"),
-    animate: bool = typer.Option(False, help="write figures/animation.gif (and .mp4 with ffmpeg): "
-                                 f"a frame every animate_every steps (config; {ANIMATE_EVERY} if unset)"),
-    rerun: Optional[Path] = typer.Option(None, help="record the run for the Rerun viewer to this "
-                                         ".rrd file (pip install "
-                                         r"gpexplore\[viz])"),
+    world: World = "cave",
+    size: Size = None,
+    resolution: Resolution = None,
+    start: Start = None,
+    method: MethodOption = None,
+    poses: PosesOption = None,
+    seed: Seed = 0,
+    max_steps: MaxSteps = None,
+    config: Config = None,
+    out: Out = Path("results/explore"),
+    animate: Annotated[bool, typer.Option(
+        help="write figures/animation.gif (and .mp4 with ffmpeg): a frame every animate_every steps "
+        f"(configuration; {ANIMATE_EVERY} if unset)")] = False,
+    rerun: Annotated[Optional[Path], typer.Option(
+        callback=_rerun_file, help=escape("record the run for the Rerun viewer to this .rrd file "
+                                          "(pip install gpexplore[viz])"))] = None,
 ):
     """Explore a world with SLAM, the map and the frontier explorer in the loop; write results and
     config.toml, the configuration used (--config config.toml with the same seed runs it again)."""
     from sim.episode import run_episode
     from sim.results import write_episode
+    from sim.world_io import load_world, start_pose
 
-    cfg = _config_for(_episode_config(config), method, poses, max_steps)
+    cfg = _config_for(episode_config(config), method, poses, max_steps)
     if animate and not cfg.animate_every:
         cfg = cfg.model_copy(update={"animate_every": ANIMATE_EVERY})
-    w, pose = _world_and_start(world, size, resolution, start, cfg.robot.radius)
-    watch = _rerun_log(rerun, w) if rerun else None
+    with _world_errors():
+        w = load_world(world, size=size, resolution=resolution)
+        pose = start_pose(world, w, cfg.robot.radius, start)
+    if rerun:
+        from sim.rerun_log import RerunLog
+
+        watch = RerunLog(rerun, w)
+    else:
+        watch = None
     result = run_episode(w, pose, cfg, seed=seed, progress=True, watch=watch)
     if watch:
         watch.close()
@@ -363,102 +342,41 @@ def explore(
         console.print(f"Rerun recording: {rerun} (open it with: rerun {rerun})")
 
 
-def _rerun_log(path: Path, world):
-    """The Rerun recorder of a run; exit 2 when rerun-sdk is not installed."""
-    if path.suffix != ".rrd":
-        raise typer.BadParameter(f"{path}: a Rerun recording is a .rrd file", param_hint="--rerun")
-    try:
-        import rerun  # noqa: F401
-    except ImportError:
-        console.print(r"[red]error:[/red] --rerun needs the Rerun SDK: pip install gpexplore\[viz]")
-        raise typer.Exit(2) from None
-    from sim.rerun_log import RerunLog
-
-    return RerunLog(path, world)
-
-
-def _config_for(cfg, method: Optional[str], poses: Optional[str], max_steps: Optional[int]):
-    """``cfg`` with the options given on the command line (None: keep the configuration's)."""
-    from pydantic import ValidationError
-
-    from sim.config_file import validation_message
-
-    try:
-        return cfg.overridden(method, poses, max_steps)
-    except ValidationError as err:
-        raise typer.BadParameter(validation_message(err, type(cfg)),
-                                 param_hint="--method/--poses/--max-steps") from None
-
-
-def _world_spec(world: str, size, resolution, start, radius: float):
-    """A campaign's world, checked here (it loads, its start is free) and loaded again by each worker."""
-    from sim.campaign import WorldSpec
-    from sim.worlds import BUILTIN_WORLDS
-
-    bitmap = world not in BUILTIN_WORLDS and Path(world).suffix.lower() not in (".yaml", ".yml")
-    size, resolution = (size, resolution) if bitmap else (None, None)
-    _, pose = _world_and_start(world, size, resolution, start, radius)
-    spec = world if world in BUILTIN_WORLDS else str(Path(world).absolute())
-    return WorldSpec(spec, (pose.x(), pose.y(), pose.theta()), size, resolution)
-
-
-def _names(text: str, option: str) -> list[str]:
-    names = [n.strip() for n in text.split(",") if n.strip()]
-    if not names or len(set(names)) < len(names):
-        raise typer.BadParameter(f"'{text}' is not a comma-separated list of distinct names", param_hint=option)
-    return names
-
-
 def _run_and_report(worlds, configs, seeds: int, out: Path, engine: str, workers, scheduler) -> None:
     """Run the campaign with a progress bar over its runs, write table.md, table.csv and figures/,
     print Table I per world; exit 1 when runs failed."""
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-    from rich.table import Table
+    from rich.markdown import Markdown
+    from tqdm import tqdm
 
-    from sim.campaign import (cell, check_resumable, finished, plan, run_campaign, write_figures,
-                              write_tables)
+    from sim.campaign import (check_resumable, finished, plan, run_campaign, run_line, table_markdown,
+                              write_figures, write_tables)
     from sim.engines import make_engine
 
     try:
         runs = plan(out, worlds, configs, list(range(seeds)))
     except ValueError as err:
-        raise typer.BadParameter(str(err), param_hint="--worlds") from None
+        raise typer.BadParameter(str(err), param_hint="'--worlds'") from None
     try:
         check_resumable(runs)
     except ValueError as err:
-        raise typer.BadParameter(str(err), param_hint="--out") from None
+        raise typer.BadParameter(str(err), param_hint="'--out'") from None
     try:
         pool = make_engine(engine, workers, scheduler)
     except (ValueError, ImportError) as err:
-        raise typer.BadParameter(str(err), param_hint="--engine") from None
+        raise typer.BadParameter(str(err), param_hint="'--engine'") from None
     except OSError as err:
-        raise typer.BadParameter(f"no Dask scheduler at {scheduler}: {err}", param_hint="--scheduler") from None
-    columns = (TextColumn("runs"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
-    with pool, Progress(*columns, console=console) as bar:
-        task = bar.add_task("runs", total=len(runs), completed=sum(finished(r) for r in runs))
-        console.print(f"{len(runs)} runs on the {pool.name} engine ({pool.workers} workers), results in {out}/")
+        raise typer.BadParameter(f"no Dask scheduler at {scheduler}: {err}", param_hint="'--scheduler'") from None
+    console.print(f"{len(runs)} runs on the {pool.name} engine ({pool.workers} workers), results in {out}/")
+    with pool, tqdm(total=len(runs), initial=sum(map(finished, runs)), desc="runs", unit="run") as bar:
 
-        def report(run, m, error):
-            name = f"{run.world.name} {run.method} seed {run.seed}"
-            if error is None:
-                bar.console.print(f"{name}: {m['termination_reason']}, {m['travel_distance_m']:.1f} m, coverage "
-                                  f"{100 * m['coverage']:.1f} %, {m['wall_time_s']:.1f} s wall")
-            else:
-                bar.console.print(f"[red]{name} failed:[/red] {error.strip().splitlines()[-1]}")
-            bar.advance(task)
+        def report(run, metrics, error):
+            bar.write(run_line(run, metrics, error))
+            bar.update()
 
         summary = run_campaign(runs, pool, report)
-    rows = write_tables(out, runs)
+    write_tables(out, runs)
     figures = write_figures(out, runs)
-    methods = list(configs)
-    for world, world_rows in rows.items():
-        view = Table(title=f"{world}: {seeds} runs per method, mean ± standard error")
-        view.add_column("metric")
-        for method in methods:
-            view.add_column(method, justify="right")
-        for row in world_rows:
-            view.add_row(row["metric"], *(cell(row[m], seeds) for m in methods))
-        console.print(view)
+    console.print(Markdown(table_markdown(runs)))
     console.print(f"{summary['done_before']} runs were done before, {summary['finished']} finished now, "
                   f"{summary['failed']} failed")
     console.print(f"results in {out}/: <world>/<method>/seed_<k>/, table.md, table.csv, "
@@ -470,46 +388,55 @@ def _run_and_report(worlds, configs, seeds: int, out: Path, engine: str, workers
 
 @app.command()
 def campaign(
-    worlds: str = typer.Option("cave,office", help="comma-separated worlds: built-in names, bitmaps, ROS .yaml"),
-    methods: str = typer.Option("gp,grid", help="comma-separated methods"),
-    seeds: int = typer.Option(10, min=1, help="runs per world and method (seeds 0..N-1)"),
-    engine: str = typer.Option("local", help="local (process pool) or dask (Dask distributed)"),
-    scheduler: Optional[str] = typer.Option(None, help="Dask scheduler address (default: a local cluster)"),
-    workers: Optional[int] = typer.Option(None, min=1, help="worker processes (default: the CPU count)"),
-    size: Optional[tuple[float, float]] = typer.Option(None, help="size of the bitmap worlds, m: --size W H"),
-    resolution: Optional[float] = typer.Option(None, help="resolution of the bitmap worlds, m/pixel"),
-    poses: Optional[str] = typer.Option(None, help="slam or truth; default: stack.poses, slam"),
-    max_steps: Optional[int] = typer.Option(None, help="scans before a run stops; default: max_steps"),
-    config: Optional[Path] = typer.Option(None, help="configuration (TOML, see `gpexplore config dump`)"),
-    out: Path = typer.Option(Path("results/campaign"), help="output directory (runs resume from it)"),
+    worlds: Worlds = ("cave", "office"),
+    methods: Methods = ("gp", "grid"),
+    seeds: Seeds = 10,
+    engine: Annotated[Engine, typer.Option(help="local (process pool) or dask (Dask distributed)")] = Engine.local,
+    scheduler: Annotated[Optional[str], typer.Option(
+        help="Dask scheduler address (default: a local cluster)")] = None,
+    workers: Annotated[Optional[int], typer.Option(min=1, help="worker processes (default: the CPU count)")] = None,
+    size: Size = None,
+    resolution: Resolution = None,
+    poses: PosesOption = None,
+    max_steps: MaxSteps = None,
+    config: Config = None,
+    out: Annotated[Path, typer.Option(file_okay=False, help="output directory (runs resume from it)")] = Path(
+        "results/campaign"),
 ):
     """Run every (world, method, seed) in parallel; each run lands in its folder as it finishes, so
     an interrupted campaign resumes. Writes Table I per world (table.md, table.csv) and figures/."""
+    from sim.campaign import world_spec
+
     if scheduler is not None and workers is not None:
-        raise typer.BadParameter("the cluster at --scheduler has its own workers", param_hint="--workers")
-    base = _episode_config(config)
-    configs = {m: _config_for(base, m, poses, max_steps) for m in _names(methods, "--methods")}
-    specs = [_world_spec(w, size, resolution, None, base.robot.radius) for w in _names(worlds, "--worlds")]
-    _run_and_report(specs, configs, seeds, out, engine, workers, scheduler)
+        raise typer.BadParameter("the cluster at --scheduler has its own workers", param_hint="'--workers'")
+    base = episode_config(config)
+    configs = {m.value: _config_for(base, m, poses, max_steps) for m in methods}
+    with _world_errors("--worlds"):
+        specs = [world_spec(w, base.robot.radius, None, size, resolution) for w in worlds]
+    _run_and_report(specs, configs, seeds, out, engine.value, workers, scheduler)
 
 
 @app.command()
 def compare(
-    world: str = typer.Option("cave", help="built-in name (cave, office), bitmap or ROS .yaml"),
-    size: Optional[tuple[float, float]] = typer.Option(None, help="bitmap size in meters: --size W H"),
-    resolution: Optional[float] = typer.Option(None, help="bitmap resolution, m/pixel"),
-    start: Optional[tuple[float, float, float]] = typer.Option(None, help="start X Y THETA"),
-    seeds: int = typer.Option(10, min=1, help="runs per method (seeds 0..N-1)"),
-    methods: str = typer.Option("gp,grid", help="comma-separated methods"),
-    poses: Optional[str] = typer.Option(None, help="slam or truth; default: stack.poses, slam"),
-    config: Optional[Path] = typer.Option(None, help="configuration (TOML, see `gpexplore config dump`)"),
-    out: Path = typer.Option(Path("results/compare"), help="output directory (runs resume from it)"),
+    world: World = "cave",
+    size: Size = None,
+    resolution: Resolution = None,
+    start: Start = None,
+    seeds: Seeds = 10,
+    methods: Methods = ("gp", "grid"),
+    poses: PosesOption = None,
+    config: Config = None,
+    out: Annotated[Path, typer.Option(file_okay=False, help="output directory (runs resume from it)")] = Path(
+        "results/compare"),
 ):
     """Run the methods over seeded runs on one world (a campaign on this machine's cores) and
     print the paper's Table I (mean ± standard error); every run's folder holds its config.toml."""
-    base = _episode_config(config)
-    configs = {m: _config_for(base, m, poses, None) for m in _names(methods, "--methods")}
-    spec = _world_spec(world, size, resolution, start, base.robot.radius)
+    from sim.campaign import world_spec
+
+    base = episode_config(config)
+    configs = {m.value: _config_for(base, m, poses, None) for m in methods}
+    with _world_errors():
+        spec = world_spec(world, base.robot.radius, start, size, resolution)
     _run_and_report([spec], configs, seeds, out, "local", None, None)
 
 
@@ -519,15 +446,16 @@ app.add_typer(config_app, name="config")
 
 @config_app.command("dump")
 def config_dump(
-    out: Optional[Path] = typer.Option(None, help="write the TOML here (default: standard output)"),
-    config: Optional[Path] = typer.Option(None, help="dump this configuration file (TOML or YAML) "
-                                          "completed with the defaults, instead of the defaults"),
+    out: Annotated[Optional[Path], typer.Option(
+        dir_okay=False, help="write the TOML here (default: standard output)")] = None,
+    config: Config = None,
 ):
-    """Write the full configuration as TOML: every section and setting, each described; edit it
-    and pass it to explore, compare, campaign, replay or map with --config."""
+    """Write the full configuration as TOML (the defaults, or the --config file completed with
+    them): every section and setting, each described; edit it and pass it to explore, compare,
+    campaign, replay or map with --config."""
     from sim.config_file import dumps_config, write_config
 
-    cfg = _episode_config(config)
+    cfg = episode_config(config)
     if out is None:
         typer.echo(dumps_config(cfg), nl=False)
     else:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 import gtsam
@@ -12,6 +13,7 @@ from exploration.follower import PathFollower
 from sim.lidar import Lidar
 from sim.odometry import Odometry
 from sim.robot import Robot
+from sim.worlds import BuiltinWorld
 from slam.scan import LaserScan
 
 
@@ -55,3 +57,37 @@ def drive_tour(robot: Robot, lidar: Lidar, odometry: Odometry, tour: np.ndarray,
         record(len(log.stamps) * dt)
     bar.close()
     return log
+
+
+def odometry_drift(log: TourLog) -> np.ndarray:
+    """(n,) distance in m from the true position to the odometry's at each scan, the odometry
+    taken from the true start (its own frame starts wherever it was reset)."""
+    start, origin = log.truth[0], log.odometry[0]
+    return np.array([np.hypot(*(start.compose(origin.between(o)).translation() - t.translation()))
+                     for o, t in zip(log.odometry, log.truth)])
+
+
+def demo_tour(builtin: BuiltinWorld, seed: int = 0, progress: bool = False) -> tuple[TourLog, dict]:
+    """The built-in world's scripted tour with the lidar's and the odometry's noise drawn from
+    ``seed``; the log and its metrics: steps, travel (m), robot and wall time (s), collisions,
+    and the odometry drift (m) at the end and at its largest."""
+    lidar_seed, odometry_seed = np.random.SeedSequence(seed).spawn(2)
+    robot = Robot(builtin.world, builtin.start)
+    tic = time.perf_counter()
+    log = drive_tour(robot, Lidar(seed=lidar_seed), Odometry(seed=odometry_seed), builtin.tour,
+                     progress=progress)
+    wall = time.perf_counter() - tic
+    drift = odometry_drift(log)
+    start = log.truth[0]
+    return log, {
+        "world": builtin.world.name,
+        "seed": seed,
+        "start": [start.x(), start.y(), start.theta()],
+        "steps": len(log.scans),
+        "travel_distance_m": robot.distance,
+        "sim_time_s": log.stamps[-1],
+        "wall_time_s": wall,
+        "collisions": robot.collisions,
+        "final_odometry_drift_m": float(drift[-1]),
+        "max_odometry_drift_m": float(drift.max()),
+    }

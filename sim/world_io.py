@@ -1,15 +1,22 @@
-"""Load worlds from bitmaps (PNG/PGM with a size or a resolution), ROS map_server YAML, or a built-in name."""
+"""Load worlds from bitmaps (PNG/PGM with a size or a resolution), ROS map_server YAML, or a
+built-in name, and choose where a robot starts in them."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
+import gtsam
 import numpy as np
 import yaml
 from PIL import Image, UnidentifiedImageError
 
 from sim.world import World
-from sim.worlds import BUILTIN_WORLDS
+from sim.worlds import BUILTIN_WORLDS, corner_start
+
+
+class StartError(ValueError):
+    """A start pose where the robot's disc is not in free space."""
 
 
 def load_world(spec: str | Path, size: tuple[float, float] | None = None,
@@ -29,6 +36,30 @@ def load_world(spec: str | Path, size: tuple[float, float] | None = None,
         names = ", ".join(sorted(BUILTIN_WORLDS))
         raise FileNotFoundError(f"{path}: no such map file (built-in worlds: {names})")
     return load_bitmap(path, size=size, resolution=resolution)
+
+
+def has_own_scale(spec: str | Path) -> bool:
+    """Whether the world ``spec`` carries its scale (a built-in name, a ROS map YAML) rather than
+    needing a size or resolution (a bitmap)."""
+    return str(spec) in BUILTIN_WORLDS or Path(spec).suffix.lower() in (".yaml", ".yml")
+
+
+def start_pose(spec: str | Path, world: World, radius: float,
+               start: Sequence[float] | None = None) -> gtsam.Pose2:
+    """Where a robot of ``radius`` m starts in ``world``, loaded from ``spec``: at ``start`` (X, Y,
+    THETA in m, m, rad) when given, else at the built-in world's own start, else at
+    ``corner_start``. Raises StartError when the robot's disc there is not free, ValueError when
+    the world has no free place at all."""
+    if start is not None:
+        pose = gtsam.Pose2(*start)
+    elif str(spec) in BUILTIN_WORLDS:
+        pose = BUILTIN_WORLDS[str(spec)]().start
+    else:
+        pose = corner_start(world, radius)
+    if world.collides((pose.x(), pose.y()), radius):
+        raise StartError(f"start ({pose.x():.2f}, {pose.y():.2f}) is not free for a robot of radius "
+                         f"{radius} m")
+    return pose
 
 
 def load_bitmap(path: str | Path, size: tuple[float, float] | None = None,

@@ -124,15 +124,15 @@ def test_map_with_slam_poses_undoes_the_odometry_drift(tmp_path):
 
 
 @pytest.mark.parametrize("option, value, message", [
-    ("--holdout", "1", "--holdout: 1.0 is not a fraction in [0, 1)"),
-    ("--holdout", "-0.2", "--holdout: -0.2 is not a fraction in [0, 1)"),
-    ("--holdout", "nan", "--holdout: nan is not a fraction in [0, 1)"),
-    ("--max-range", "0", "--max-range: 0.0 m is not a positive finite range"),
-    ("--max-range", "-3", "--max-range: -3.0 m is not a positive finite range"),
-    ("--max-range", "inf", "--max-range: inf m is not a positive finite range"),
-    ("--every", "0", "--every: 0 is not a scan stride (1 or more)"),
-    ("--poses", "gps", "--poses: unknown pose source 'gps' (have: log, slam)"),
-    ("--config", "missing.toml", "--config: missing.toml: cannot read"),
+    ("--holdout", "1", "'--holdout': 1.0 is not a fraction in [0, 1)"),
+    ("--holdout", "-0.2", "'--holdout': -0.2 is not a fraction in [0, 1)"),
+    ("--holdout", "nan", "'--holdout': nan is not a fraction in [0, 1)"),
+    ("--max-range", "0", "'--max-range': 0.0 is not a positive finite number"),
+    ("--max-range", "-3", "'--max-range': -3.0 is not a positive finite number"),
+    ("--max-range", "inf", "'--max-range': inf is not a positive finite number"),
+    ("--every", "0", "'--every': Input should be greater than or equal to 1"),
+    ("--poses", "gps", "'--poses': Value error, 'gps' is not one of 'log', 'slam'"),
+    ("--config", "missing.toml", "'--config': file 'missing.toml' does not exist"),
 ])
 def test_map_command_rejects_bad_options_by_name_and_value(tmp_path, option, value, message):
     log = tmp_path / "x.clf"

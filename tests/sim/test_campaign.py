@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from sim.campaign import (WorldSpec, check_resumable, execute, plan, results, run_campaign, table,
-                          termination_counts, write_figures, write_tables)
+from sim.campaign import (Run, WorldSpec, check_resumable, execute, plan, results, run_campaign, run_line, table,
+                          table_markdown, termination_counts, world_spec, write_figures, write_tables)
 from sim.engines import DaskEngine, LocalEngine
 from sim.episode import EpisodeConfig
 from sim.results import CURVE_COLUMNS, read_curve
@@ -64,6 +64,32 @@ def configs(max_steps=50):
 
 def without_wall(m):
     return {k: v for k, v in m.items() if k not in WALL}
+
+
+def test_world_spec_checks_the_world_and_keeps_a_scale_for_bitmaps_only(tmp_path, room, monkeypatch):
+    from sim.world_io import StartError
+
+    monkeypatch.chdir(tmp_path)
+    bitmap = world_spec("maps/room.png", 0.25, size=(5.0, 3.0))
+    assert bitmap.spec == room.spec and bitmap.size == (5.0, 3.0)      # absolute: workers need no cwd
+    assert not bitmap.load().collides(bitmap.start[:2], 0.25)
+    cave = world_spec("cave", 0.25, size=(5.0, 3.0))                     # one --size for mixed worlds
+    assert (cave.spec, cave.size, cave.resolution) == ("cave", None, None)
+    assert cave.start == pytest.approx((2.0, 2.0, np.pi / 4))
+    assert world_spec("cave", 0.25, (3.0, 2.0, 0.5)).start == (3.0, 2.0, 0.5)
+    with pytest.raises(StartError, match="not free"):
+        world_spec("maps/room.png", 0.25, (0.05, 0.05, 0.0), size=(5.0, 3.0))
+    with pytest.raises(FileNotFoundError, match="atlantis.png: no such map file"):
+        world_spec("atlantis.png", 0.25, size=(5.0, 3.0))
+
+
+def test_run_line_says_how_a_run_ended():
+    run = Run(WorldSpec("cave", (0, 0, 0)), configs()["grid"].model_dump(), 3, "out/cave/grid/seed_3")
+    m = {"termination_reason": "frontiers_exhausted", "travel_distance_m": 41.26, "coverage": 0.9987,
+         "wall_time_s": 5.04}
+    assert run_line(run, m, None) == "cave grid seed 3: frontiers_exhausted, 41.3 m, coverage 99.9 %, 5.0 s wall"
+    error = "Traceback (most recent call last):\n  ...\nFileNotFoundError: hall.png: no such map file\n"
+    assert run_line(run, None, error) == "cave grid seed 3 failed: FileNotFoundError: hall.png: no such map file"
 
 
 def test_plan_lays_out_one_folder_per_run(tmp_path, room):
@@ -144,6 +170,7 @@ def test_tables_and_figures_come_from_the_run_folders(tmp_path, room, pool):
             assert float(line["stderr"]) == pytest.approx(expected["stderr"])
     travel = next(r for r in rows if r["metric"] == "Travel distance (m)")
     markdown = (tmp_path / "table.md").read_text()
+    assert markdown == table_markdown(runs)                 # what `gpexplore campaign` prints
     assert "## room.png" in markdown
     assert f"| Travel distance (m) | {travel['gp']['mean']:.4g} ± {travel['gp']['stderr']:.2g} |" in markdown
     for path in write_figures(tmp_path, runs):

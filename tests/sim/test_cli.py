@@ -10,6 +10,16 @@ from slam.tum import read_tum
 runner = CliRunner()
 
 
+def one_line(output):
+    """CLI output with rich's error box and line wrapping removed."""
+    return " ".join(output.replace("│", " ").split())
+
+
+def error_lines(output):
+    """The lines inside rich's error box, without the box."""
+    return [line.strip("│ ") for line in output.splitlines() if line.startswith("│")]
+
+
 def test_every_command_has_help():
     result = runner.invoke(app, ["--help"])
     assert result.exit_code == 0
@@ -33,7 +43,24 @@ def test_demo_writes_results(tmp_path):
     # the tour closes on its start; the odometry has drifted away from the truth
     assert np.hypot(truth[-1].x() - truth[0].x(), truth[-1].y() - truth[0].y()) < 0.2
     assert metrics["final_odometry_drift_m"] > 0.05
+    assert metrics["max_odometry_drift_m"] >= metrics["final_odometry_drift_m"]
     assert np.all(np.diff(stamps) > 0)
+
+
+def test_odometry_drift_is_the_odometry_error_from_the_true_start():
+    """Odometry in its own frame (rotated by 90 degrees and shifted) that follows the truth
+    exactly has no drift; one that ends 0.3 m to the side has 0.3 m at the end."""
+    import gtsam
+
+    from sim.tour import TourLog, odometry_drift
+
+    truth = [gtsam.Pose2(1.0 + x, 2.0, 0.0) for x in (0.0, 1.0, 2.0)]
+    frame = gtsam.Pose2(5.0, -3.0, np.pi / 2)
+    exact = [frame.compose(truth[0].between(t)) for t in truth]
+    log = TourLog(stamps=[0.0, 1.0, 2.0], truth=truth, odometry=exact)
+    np.testing.assert_allclose(odometry_drift(log), 0.0, atol=1e-12)
+    log.odometry = exact[:2] + [exact[2].compose(gtsam.Pose2(0.0, 0.3, 0.0))]
+    np.testing.assert_allclose(odometry_drift(log), [0.0, 0.0, 0.3], atol=1e-12)
 
 
 def test_world_command_reports_reachable_area(tmp_path):
@@ -82,7 +109,75 @@ def test_explore_writes_every_result(tmp_path, method):
 
 def test_explore_rejects_a_blocked_start(tmp_path):
     result = runner.invoke(app, ["explore", "--start", "0.1", "0.1", "0", "--out", str(tmp_path)])
-    assert result.exit_code == 2 and "not free" in result.output
+    assert result.exit_code == 2 and "'--start': start (0.10, 0.10) is not free" in one_line(result.output)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["explore", "--method", "foo"], "'--method': Value error, 'foo' is not one of 'gp', 'grid'"),
+    (["explore", "--poses", "gps"], "'--poses': Value error, 'gps' is not one of 'slam', 'truth'"),
+    (["map", "LOG", "--poses", "truth"], "'--poses': Value error, 'truth' is not one of 'log', 'slam'"),
+    (["posegraph", "LOG", "--method", "gn"], "'--method': Value error, 'gn' is not one of 'dogleg', 'lm'"),
+    (["campaign", "--engine", "spark"], "'--engine': Value error, 'spark' is not one of 'local', 'dask'"),
+    (["demo", "--world", "atlantis"], "'--world': Value error, 'atlantis' is not one of 'cave', 'office'"),
+    (["compare", "--methods", "gp,astar"], "'--methods': 'astar' is not one of 'gp', 'grid'"),
+    (["campaign", "--methods", "gp", "--methods", "grid,gp"], "'--methods': gp given twice"),
+    (["campaign", "--worlds", "cave,cave"], "'--worlds': cave given twice"),
+])
+def test_choices_are_checked_by_name_listing_the_choices(tmp_path, args, message):
+    log = tmp_path / "x.clf"
+    log.write_text("FLASER 2 1.0 1.0 0 0 0 0 0 0 0 h 0\n")
+    args = [str(log) if a == "LOG" else a for a in args]
+    result = runner.invoke(app, [*args, "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2 and message in one_line(result.output), result.output
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("args, option, message", [
+    (["explore", "--seed", "-5"], "--seed", "Input should be greater than or equal to 0"),
+    (["demo", "--seed", "-1"], "--seed", "Input should be greater than or equal to 0"),
+    (["campaign", "--seeds", "0"], "--seeds", "Input should be greater than or equal to 1"),
+    (["explore", "--max-steps", "-10"], "--max-steps", "Input should be greater than or equal to 1"),
+    (["campaign", "--max-steps", "0"], "--max-steps", "Input should be greater than or equal to 1"),
+    (["explore", "--resolution", "0"], "--resolution", "0.0 is not a positive finite number"),
+    (["world", "office", "--radius", "-1"], "--radius", "-1.0 is not a positive finite number"),
+])
+def test_a_number_out_of_range_is_a_one_line_usage_error_naming_only_its_option(tmp_path, args, option, message):
+    result = runner.invoke(app, [*args, "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2 and isinstance(result.exception, SystemExit), result.output
+    assert error_lines(result.output) == [f"Invalid value for '{option}': {message}"]
+    assert "Traceback" not in result.output and not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("args, message", [
+    (["explore", "--start", "5", "5"], "'--start': --start X Y THETA needs 3 numbers, got '--out'"),
+    (["compare", "--start", "5", "5"], "'--start': --start X Y THETA needs 3 numbers, got '--out'"),
+    (["explore", "--size", "5", "--start", "1", "1", "0"], "'--size': --size W H needs 2 numbers, got '--start'"),
+    (["world", "office", "--start", "2"], "'--start': --start X Y needs 2 numbers, got '--out'"),
+    (["explore", "--start", "1", "nan", "0"], "'--start': --start X Y THETA needs 3 numbers, got 'nan'"),
+])
+def test_a_tuple_option_short_of_numbers_does_not_swallow_the_next_option(tmp_path, args, message):
+    result = runner.invoke(app, [*args, "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2 and message in one_line(result.output), result.output
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("command", ["map", "replay"])
+def test_a_missing_log_is_named_before_any_work(tmp_path, command):
+    missing = tmp_path / "gone.clf"
+    result = runner.invoke(app, [command, str(missing), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2
+    assert f"'LOG':path'{missing}'doesnotexist" in "".join(result.output.replace("│", "").split())
+    assert not (tmp_path / "o").exists()
+
+
+def test_help_shows_config_sections_and_points_at_no_missing_file():
+    result = runner.invoke(app, ["map", "--help"])
+    assert result.exit_code == 0
+    assert "[stack.com]" in one_line(result.output) and "[stack.slam]" in one_line(result.output)
+    assert "pip install gpexplore[viz]" in one_line(runner.invoke(app, ["explore", "--help"]).output)
+    for name in [c.name or c.callback.__name__ for c in app.registered_commands]:
+        text = runner.invoke(app, [name.rstrip("_"), "--help"]).output
+        assert "DESIGN.md" not in text and "SOURCES.md" not in text, name
 
 
 def room(tmp_path):

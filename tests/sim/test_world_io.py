@@ -1,10 +1,12 @@
 import csv
 
+import gtsam
 import numpy as np
 import pytest
 from PIL import Image
 
-from sim.world_io import load_bitmap, load_ros_map, load_world
+from sim.world_io import StartError, has_own_scale, load_bitmap, load_ros_map, load_world, start_pose
+from sim.worlds import BUILTIN_WORLDS, corner_start
 
 
 def save_grey(path, pixels):
@@ -115,6 +117,33 @@ def test_builtin_names_and_their_scale():
     assert cave.size == pytest.approx((20.0, 20.0))
     with pytest.raises(ValueError, match="own scale"):
         load_world("cave", size=(10, 10))
+
+
+def test_only_bitmaps_need_a_scale():
+    assert has_own_scale("cave") and has_own_scale("maps/lab.yaml") and has_own_scale("LAB.YML")
+    assert not has_own_scale("maps/cave.png") and not has_own_scale("caves")
+
+
+def test_start_pose_given_builtin_or_a_free_corner(tmp_path):
+    cave = load_world("cave")
+    assert start_pose("cave", cave, 0.25).equals(BUILTIN_WORLDS["cave"]().start, 1e-12)
+    assert start_pose("cave", cave, 0.25, (2.5, 2.0, 1.0)).equals(gtsam.Pose2(2.5, 2.0, 1.0), 1e-12)
+    pixels = np.full((60, 100), 255)                      # a 5 m x 3 m room, walls 0.1 m thick
+    pixels[:2], pixels[-2:], pixels[:, :2], pixels[:, -2:] = 0, 0, 0, 0
+    room = load_world(save_grey(tmp_path / "room.png", pixels), size=(5.0, 3.0))
+    pose = start_pose(tmp_path / "room.png", room, 0.25)
+    assert pose.equals(corner_start(room, 0.25), 1e-12)
+    assert not room.collides((pose.x(), pose.y()), 0.25 + 0.5)   # the corner leaves a margin
+
+
+def test_a_start_the_robot_does_not_fit_is_a_start_error(tmp_path):
+    cave = load_world("cave")
+    with pytest.raises(StartError, match=r"start \(0.10, 0.10\) is not free for a robot of radius 0.25 m"):
+        start_pose("cave", cave, 0.25, (0.1, 0.1, 0.0))
+    walls = load_world(save_grey(tmp_path / "walls.png", np.zeros((4, 4))), size=(1.0, 1.0))
+    with pytest.raises(ValueError, match="no free place") as err:         # no start at all: the world's fault
+        start_pose(tmp_path / "walls.png", walls, 0.25)
+    assert not isinstance(err.value, StartError)
 
 
 def scales(shared_data):

@@ -34,8 +34,10 @@ def test_replay_bad_inputs_are_clear(tmp_path):
     empty.write_text("# nothing\n")
     result = runner.invoke(app, ["replay", str(empty), "--out", str(tmp_path / "o")])
     assert result.exit_code == 2 and "no laser messages" in " ".join(result.output.split())
-    result = runner.invoke(app, ["replay", str(tmp_path / "missing.clf")])
-    assert result.exit_code == 2 and "no such log file" in " ".join(result.output.split())
+    missing = tmp_path / "missing.clf"
+    result = runner.invoke(app, ["replay", str(missing)])                 # named by typer, before any work
+    assert result.exit_code == 2
+    assert f"'LOG':path'{missing}'doesnotexist" in "".join(result.output.replace("│", "").split())
 
 
 def test_replay_small_log_with_foreign_relations(tmp_path, shared_data):
