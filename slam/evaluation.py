@@ -76,7 +76,8 @@ class RelationError:
     interpolated: int
 
     def summary(self, split: float = 5.0) -> dict:
-        """Mean ± std (m, deg) over all relations and split at ``split`` seconds."""
+        """Mean ± std (m, deg), and the 95th percentile and largest translational error (m),
+        over all relations and split at ``split`` seconds."""
         out = {"relations": int(self.translational.size), "interpolated": self.interpolated}
         for name, mask in (("all", np.ones_like(self.duration, bool)),
                            (f"short_lt_{split:g}s", self.duration < split),
@@ -85,6 +86,8 @@ class RelationError:
             out[name] = {"n": int(mask.sum()),
                          "trans_mean_m": float(t.mean()) if t.size else None,
                          "trans_std_m": float(t.std()) if t.size else None,
+                         "trans_p95_m": float(np.percentile(t, 95)) if t.size else None,
+                         "trans_max_m": float(t.max()) if t.size else None,
                          "rot_mean_deg": float(r.mean()) if r.size else None,
                          "rot_std_deg": float(r.std()) if r.size else None}
         return out

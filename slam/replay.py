@@ -59,7 +59,7 @@ def replay_metrics(log: LaserLog, result: ReplayResult) -> dict:
     """What the replay did: scans, keyframes, loop closures (proposed by the gates, verified by
     registration, accepted, and why the others were turned down), front-end matches with an
     unobservable direction, fallbacks from the normal path, the largest correction a loop made,
-    wall time (s) and the real-time factor (None when the log's stamps span no time)."""
+    wall time (s) and the real-time factor (None when the log's stamps are broken)."""
     slam = result.slam
     if isinstance(log, CarmenLog):
         source = {"skipped_lines": len(log.skipped)}
@@ -78,7 +78,7 @@ def replay_metrics(log: LaserLog, result: ReplayResult) -> dict:
         "log_duration_s": log.duration,
         "wall_time_s": result.wall_time,
         "real_time_factor": (log.duration / result.wall_time
-                             if result.wall_time > 0 and log.duration > 0 else None),
+                             if result.wall_time > 0 and log.duration else None),
     }
 
 

@@ -124,6 +124,7 @@ def test_a_scan_with_no_odom_line_since_the_last_has_no_odometry(tmp_path):
     path.write_text("".join(lines))
     log = CarmenLog(path)
     assert log.rebased_odometry and log.has_odom_lines
+    assert log.duration is None                     # all stamps 0: no duration to speak of
     assert log[0].odometry.equals(gtsam.Pose2(), 1e-12)
     assert log[1].odometry is None                  # nothing was logged between scans 0 and 1
     # the increment before scan 2 chains on from scan 0's odometry (none came in between)

@@ -1,0 +1,127 @@
+"""Pose SLAM on every log in the shared data: one row per log, the worst case beside the mean.
+
+    OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 python benchmarks/bench_slam_suite.py
+        [--logs NAME ...] [--perturb 5] [--seed 0]
+
+Prints, never asserts, per log: scans, keyframes and loop closures; the real-time factor of
+Pose SLAM and its wall time against the scan-matching front end alone (loop closing off) in the
+same run; for GMapping-corrected logs, the agreement with GMapping's poses after SE(2) alignment,
+matched by scan order (RMSE, p95, max, heading RMSE: GMapping's maps are good, but not ground
+truth); for MIT CSAIL, the Kümmerle relation error (mean, short/long, p95, max). With
+``--perturb N``, N more replays with the ranges perturbed by seeded 1 mm Gaussian noise: the
+largest trajectory RMSE between a perturbed replay and the clean one, and the spread (max − min)
+of their agreement with GMapping. A crash is a row too, with its error.
+
+Targets (issue 12): 0 crashes; agreement RMSE ≤ 0.10 m and max ≤ 0.5 m on each corrected log;
+CSAIL ≤ 0.025 m / 0.33° mean, worst relation ≤ 0.3 m; perturbed replays within 0.05 m.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import sys
+import time
+import traceback
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from sim.data import shared_data_dir  # noqa: E402
+from sim.logs import replay_log  # noqa: E402
+from slam.agreement import agreement  # noqa: E402
+from slam.carmen import CarmenLog  # noqa: E402
+from slam.config import SlamConfig  # noqa: E402
+from slam.evaluation import read_relations, relation_error  # noqa: E402
+from slam.replay import replay_metrics  # noqa: E402
+
+
+def perturbed(log: CarmenLog, sigma: float, seed: int) -> CarmenLog:
+    """A copy of ``log`` whose finite ranges carry extra N(0, sigma²) noise (m), seeded."""
+    rng = np.random.default_rng(seed)
+    copy = CarmenLog.__new__(CarmenLog)
+    copy.__dict__.update(log.__dict__)
+    records = []
+    for r in log:
+        ranges = r.scan.ranges.copy()
+        hit = np.isfinite(ranges) & (ranges < r.scan.max_range)
+        ranges[hit] += rng.normal(0.0, sigma, hit.sum())
+        records.append(dataclasses.replace(r, scan=dataclasses.replace(r.scan, ranges=ranges)))
+    copy.records = records
+    return copy
+
+
+def row(path: Path, relations_dir: Path, perturb: int, seed: int) -> str:
+    log = CarmenLog(path)
+    no_loops = SlamConfig()
+    no_loops.loop_closure.enabled = False
+    front = replay_log(log, no_loops)
+    full = replay_log(log)
+    m = replay_metrics(log, full)
+    rtf = m["real_time_factor"]
+    out = [f"{path.name}: {len(log)} scans, {m['keyframes']} keyframes, {m['loop_closures']} loops "
+           f"({m['loops']['proposed']} proposed, {m['loops']['verified']} verified), "
+           f"{'%.1fx real time' % rtf if rtf else 'no stamps'}, {full.wall_time:.1f} s wall = "
+           f"{full.wall_time / front.wall_time:.2f}x the front end; largest correction "
+           f"{m['largest_correction_m']:.2f} m; fallbacks {m['fallbacks'] or 'none'}"]
+    corrected = "corrected" in path.name
+    if corrected:
+        a = agreement(full.trajectory, [r.pose for r in log])
+        f = agreement(front.trajectory, [r.pose for r in log])
+        out.append(f"  vs GMapping: RMSE {a['rmse_m']:.3f} m, p95 {a['p95_m']:.3f}, max {a['max_m']:.3f}, "
+                   f"heading RMSE {a['rot_rmse_deg']:.2f} deg (front end alone: RMSE {f['rmse_m']:.3f} m, "
+                   f"max {f['max_m']:.3f})")
+    relations = relations_dir / (path.name.split(".")[0] + ".relations")
+    if relations.exists():
+        odometry = [r.odometry for r in log]
+        e = relation_error(read_relations(relations), full.stamps, full.trajectory,
+                           odometry if None not in odometry else None).summary()
+        parts = [f"{k} {e[k]['trans_mean_m']:.4f} m {e[k]['rot_mean_deg']:.3f} deg"
+                 for k in ("all", "short_lt_5s", "long_ge_5s")]
+        out.append(f"  relations: {' | '.join(parts)}; p95 {e['all']['trans_p95_m']:.3f} m, "
+                   f"max {e['all']['trans_max_m']:.3f} m")
+    if perturb:
+        between, against = [], []
+        for k in range(perturb):
+            other = replay_log(perturbed(log, 0.001, seed + k))
+            between.append(agreement(other.trajectory, full.trajectory)["rmse_m"])
+            if corrected:
+                against.append(agreement(other.trajectory, [r.pose for r in log])["rmse_m"])
+        spread = f", agreement with GMapping {min(against):.3f}-{max(against):.3f} m " \
+                 f"(spread {max(against) - min(against):.3f})" if against else ""
+        out.append(f"  {perturb} replays with 1 mm range noise: RMSE to the clean replay max "
+                   f"{max(between):.3f} m{spread}")
+    return "\n".join(out)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--logs", nargs="*", help="log file names (default: every log)")
+    parser.add_argument("--perturb", type=int, default=5, help="replays with 1 mm range noise per log")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the first perturbed replay")
+    args = parser.parse_args()
+    if os.environ.get("OPENBLAS_NUM_THREADS") != "1":
+        print("warning: set OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 (BLAS threads slow this 9-16x)")
+    data = shared_data_dir()
+    if data is None:
+        sys.exit("shared data not found: set GPEXPLORE_DATA")
+    paths = sorted(p for p in (data / "logs").iterdir() if p.name.endswith((".clf", ".log", ".gz")))
+    if args.logs:
+        paths = [p for p in paths if p.name in args.logs or p.name.split(".")[0] in args.logs]
+    crashes = 0
+    for path in paths:
+        tic = time.perf_counter()
+        try:
+            print(row(path, data / "relations", args.perturb, args.seed), flush=True)
+        except Exception:                                   # a crash is a result here
+            crashes += 1
+            print(f"{path.name}: CRASH\n{traceback.format_exc()}", flush=True)
+        print(f"  ({time.perf_counter() - tic:.0f} s)", flush=True)
+    print(f"{len(paths)} logs, {crashes} crashes")
+
+
+if __name__ == "__main__":
+    main()
