@@ -199,21 +199,17 @@ def replay(
 def _open_log(path: Path, max_range: float = 80.0, skip_malformed: bool = False,
               scan_topic: Optional[str] = None, odom_topic: Optional[str] = None):
     """The laser records of a CARMEN log or, by its path, a ROS bag; a bad one exits 2 with the reason."""
+    from sim.logs import open_log
     from slam.carmen import CarmenLog, LogFormatError
-    from slam.rosbag import BagError, RosBag, is_bag
+    from slam.rosbag import BagError
 
-    bag = is_bag(path)
-    if not bag and (scan_topic or odom_topic):
-        raise typer.BadParameter(f"{path} is a CARMEN log, topics are for ROS bags",
-                                 param_hint="'--scan-topic'" if scan_topic else "'--odom-topic'")
     try:
-        if bag:
-            records = RosBag(path, scan_topic, odom_topic, max_range=max_range)
-        else:
-            records = CarmenLog(path, max_range=max_range, skip_malformed=skip_malformed)
+        records = open_log(path, max_range, skip_malformed, scan_topic, odom_topic)
     except (LogFormatError, BagError, FileNotFoundError) as err:
         console.print(f"[red]error:[/red] {escape(str(err))}")
         raise typer.Exit(2) from None
+    except ValueError as err:                      # topics given for a CARMEN log
+        raise typer.BadParameter(str(err), param_hint="'--scan-topic'" if scan_topic else "'--odom-topic'")
     if records.skipped:
         what, unit = ("malformed lines", "line") if isinstance(records, CarmenLog) else ("scans", "scan")
         number, reason = records.skipped[0]

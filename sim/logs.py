@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal
 
 import numpy as np
@@ -13,9 +14,25 @@ from tqdm import tqdm
 from exploration.stack import Stack, StackConfig
 from mapping.config import COMConfig
 from mapping.measured import MeasuredMap
+from slam.carmen import DEFAULT_MAX_RANGE, CarmenLog
 from slam.config import SlamConfig
 from slam.laser_log import LaserLog
 from slam.replay import ReplayResult
+
+
+def open_log(path: str | Path, max_range: float = DEFAULT_MAX_RANGE, skip_malformed: bool = False,
+             scan_topic: str | None = None, odom_topic: str | None = None) -> LaserLog:
+    """A CARMEN log or, by its path, a ROS bag (ROS 1 ``.bag``; ROS 2 folder, ``.db3`` or
+    ``.mcap``). Raises ``LogFormatError``, ``BagError`` or ``FileNotFoundError`` naming the file
+    (and line), and ``ValueError`` when topics are given for a CARMEN log."""
+    from slam.rosbag import RosBag, is_bag
+
+    path = Path(path)
+    if is_bag(path):
+        return RosBag(path, scan_topic, odom_topic, max_range=max_range)
+    if scan_topic or odom_topic:
+        raise ValueError(f"{path} is a CARMEN log: topics are for ROS bags")
+    return CarmenLog(path, max_range=max_range, skip_malformed=skip_malformed)
 
 
 def _drive(stack: Stack, log: LaserLog, progress: bool) -> float:
