@@ -28,7 +28,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from sim.data import shared_data_dir  # noqa: E402
 from slam.carmen import CarmenLog  # noqa: E402
 from slam.config import RegistrationConfig  # noqa: E402
-from slam.correlative import CorrelativeConfig, CorrelativeGrid, match, match_exhaustive  # noqa: E402
+from slam.config import CorrelativeConfig  # noqa: E402
+from slam.correlative import CorrelativeGrid, match, match_exhaustive  # noqa: E402
 from slam.registration import Registration, Submap, scan_normals, transform  # noqa: E402
 
 

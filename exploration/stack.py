@@ -79,12 +79,13 @@ class Stack:
             reads the map before the end); ``off`` keeps no map (SLAM only, as in log replay).
         planning: choose goals and drive (off: log replay and log mapping).
         occupancy: a map to use instead of the one the configuration names.
+        localiser: a localiser to use instead of the one the configuration names.
         speed_limits: the robot's top speed (m/s) and turn rate (rad/s), for the navigator.
     """
 
     def __init__(self, config: StackConfig | None = None, seed: int = 0, *,
                  mapping: Literal["online", "final", "off"] = "online", planning: bool = True,
-                 occupancy: OccupancyMap | None = None,
+                 occupancy: OccupancyMap | None = None, localiser: Localiser | None = None,
                  speed_limits: tuple[float, float] = (0.5, math.pi / 2)):
         self.config = c = config or StackConfig()
         if mapping not in ("online", "final", "off"):
@@ -92,7 +93,8 @@ class Stack:
         if planning and mapping != "online":
             raise ValueError("Stack: planning needs the map online (mapping='online')")
         self.mapping = mapping
-        self.localiser: Localiser = PoseSlam(c.slam) if c.poses == "slam" else GivenPoses(c.slam.keyframes)
+        self.localiser: Localiser = localiser or (PoseSlam(c.slam) if c.poses == "slam"
+                                                  else GivenPoses(c.slam.keyframes))
         self.map: OccupancyMap | None = None if mapping == "off" else occupancy or self._new_map()
         self.explorer = Explorer(c.explorer, seed=seed) if planning else None
         self.navigator = Navigator(c.navigation, *speed_limits) if planning else None

@@ -17,6 +17,7 @@ from mapping.measured import MeasuredMap
 from slam.carmen import DEFAULT_MAX_RANGE, CarmenLog
 from slam.config import SlamConfig
 from slam.laser_log import LaserLog
+from slam.pose_slam import PoseSlam
 from slam.replay import ReplayResult
 
 
@@ -48,10 +49,11 @@ def _replay_result(stack: Stack, wall: float) -> ReplayResult:
     return ReplayResult(slam, np.array(slam.scan_stamps), slam.trajectory(), wall)
 
 
-def replay_log(log: LaserLog, config: SlamConfig | None = None, progress: bool = False) -> ReplayResult:
+def replay_log(log: LaserLog, config: SlamConfig | None = None, progress: bool = False,
+               slam: PoseSlam | None = None) -> ReplayResult:
     """Pose SLAM over every record of ``log``, the log's raw odometry as the prediction (the
-    stack without map or planner)."""
-    stack = Stack(StackConfig(slam=config or SlamConfig()), mapping="off", planning=False)
+    stack without map or planner); ``slam``: a prepared PoseSlam to use instead of a new one."""
+    stack = Stack(StackConfig(slam=config or SlamConfig()), mapping="off", planning=False, localiser=slam)
     return _replay_result(stack, _drive(stack, log, progress))
 
 

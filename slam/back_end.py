@@ -116,6 +116,50 @@ class PoseGraph:
         self.estimate = self.isam.calculateEstimate()
         return True
 
+    def loop_residuals(self) -> np.ndarray:
+        """(m,) squared Mahalanobis residual of each loop closure at the current estimate."""
+        out = []
+        for i, j, z, covariance, loop in self.edges:
+            if loop:
+                e = gtsam.Pose2.Logmap(z.between(self.pose(i).between(self.pose(j))))
+                out.append(float(e @ np.linalg.solve(covariance, e)))
+        return np.array(out)
+
+    def outlier_loops(self, probability: float) -> list[int]:
+        """Indices into ``edges`` of the loop closures that graduated non-convexity rejects (Yang
+        et al. 2020: a truncated least-squares loss reached from its convex surrogate, its inlier
+        threshold the χ²(3) quantile at ``probability``), every keyframe link and the prior being
+        known inliers. Run on the whole graph, from the current estimate."""
+        graph = gtsam.NonlinearFactorGraph()
+        graph.add(self.factors.at(0))
+        for i, j, z, covariance, _ in self.edges:
+            graph.add(gtsam.BetweenFactorPose2(i, j, z, gtsam.noiseModel.Gaussian.Covariance(covariance)))
+        params = gtsam.GncLMParams()
+        params.setKnownInliers([0] + [k + 1 for k, edge in enumerate(self.edges) if not edge[4]])
+        optimizer = gtsam.GncLMOptimizer(graph, self.estimate, params)
+        optimizer.setInlierCostThresholdsAtProbability(probability)
+        optimizer.optimize()
+        weights = optimizer.getWeights()
+        return [k for k, edge in enumerate(self.edges) if edge[4] and weights[k + 1] < 0.5]
+
+    def remove_edges(self, indices: list[int], iterations: int) -> None:
+        """Take between factors (indices into ``edges``) out of the graph: the solver is rebuilt
+        from the others, from the current estimate, and iterated ``iterations`` more times (one
+        iSAM2 update is one Gauss–Newton step)."""
+        drop = set(indices)
+        factors = gtsam.NonlinearFactorGraph()
+        factors.add(self.factors.at(0))
+        for k in range(len(self.edges)):
+            if k not in drop:
+                factors.add(self.factors.at(k + 1))
+        self.edges = [edge for k, edge in enumerate(self.edges) if k not in drop]
+        self.isam = gtsam.ISAM2(self._params(self.config.qr))
+        self.isam.update(factors, self.estimate)
+        for _ in range(iterations):
+            self.isam.update()
+        self.factors = factors
+        self.estimate = self.isam.calculateEstimate()
+
     def pose(self, key: int) -> gtsam.Pose2:
         return self.estimate.atPose2(key)
 

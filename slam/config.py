@@ -30,6 +30,31 @@ class RegistrationConfig(_Config):
     min_points: int = Field(20, ge=3, description="fewer hit points: no scan matching")
 
 
+class CorrelativeConfig(_Config):
+    """Correlative scan matching: the likelihood grid, the search window, and acceptance."""
+
+    resolution: float = Field(0.05, gt=0, description="cell size of the likelihood grid and the "
+                                                      "translation step of the search (m)")
+    likelihood_sigma: float = Field(0.075, gt=0, description="σ of the likelihood field exp(-d²/2σ²), d the "
+                                                             "distance to the nearest reference point (m)")
+    levels: int = Field(6, ge=1, le=12, description="precomputation grids: level h bounds blocks of 2^h × 2^h "
+                                                    "cells, the coarsest 2^(levels-1) cells (count)")
+    window_xy: float = Field(2.0, ge=0, description="translations searched: ± this around the guess, "
+                                                    "along x and along y (m)")
+    window_deg: float = Field(30.0, ge=0, le=180, description="rotations searched: ± this around the "
+                                                              "guess (deg)")
+    min_score: float = Field(0.5, ge=0, le=1, description="mean likelihood per point below which the "
+                                                          "match is rejected (unitless, in [0, 1])")
+    max_points: int = Field(400, ge=1, description="more scan points than this are thinned by an "
+                                                   "adaptive voxel filter (count)")
+    max_range: float = Field(30.0, gt=0, description="scan points farther from the sensor are dropped; "
+                                                     "the farthest kept sets the angular step (m)")
+    min_points: int = Field(20, ge=1, description="fewer scan points than this: no match (count)")
+    covariance_cells: int = Field(3, ge=1, description="half-width of the neighbourhood of the optimum "
+                                                       "whose score surface gives the covariance, in "
+                                                       "cells and in angular steps (count)")
+
+
 class OdometryModel(_Config):
     """How much the wheel odometry's prediction is trusted (its σ grows with the motion)."""
 
@@ -51,6 +76,14 @@ class FrontEndConfig(_Config):
                                          description="below this, track again from the coarsest level")
     submap_keyframes: int = Field(10, ge=1, description="recent keyframes in the local submap")
     odometry: OdometryModel = OdometryModel()
+    correlative: CorrelativeConfig = Field(
+        CorrelativeConfig(window_xy=3.0, window_deg=60.0),
+        description="the search when tracking still fits poorly after the KISS-ICP retries: from the "
+        "prediction, ± 3 m and ± 60 degrees without wheel odometry; with it, 3 σ of the wheels' "
+        "prediction, at least correlative_min_window (an alias metres away must not beat the wheels)")
+    correlative_min_window: list[PositiveFloat] = Field(
+        [0.3, 15.0], min_length=2, max_length=2,
+        description="smallest correlative window with wheel odometry: ± m, ± degrees")
 
 
 class KeyframeConfig(_Config):
@@ -88,6 +121,14 @@ class LoopClosureConfig(_Config):
     coarse_levels: int = Field(2, ge=0, description="voxel levels run from every yaw offset")
     coarse_inlier_distance: float = Field(0.3, gt=0, description="m: scoring the coarse starts")
     coarse_accept: float = Field(0.85, gt=0, le=1, description="a coarse start scoring this stops the search")
+    correlative: CorrelativeConfig = Field(
+        CorrelativeConfig(window_xy=5.0, window_deg=180.0, levels=7, min_score=0.6),
+        description="the search where the graph's guess is poor (after metres of drift): its window is "
+        "3 σ of the predicted relative pose, at least poor_guess_sigma, at most these windows")
+    poor_guess_sigma: list[PositiveFloat] = Field(
+        [0.25, 0.25, 0.087], min_length=3, max_length=3,
+        description="σ (m, m, rad) of the predicted relative pose beyond which the guess is poor: the "
+        "correlative search runs (also when no coarse start scores coarse_accept)")
     min_inlier_fraction: float = Field(0.6, gt=0, le=1, description="a registration with fewer "
                                        "inliers is no loop closure")
     symmetry_translation: float = Field(0.1, gt=0, description="m: forward ∘ reverse registration gate")
@@ -101,6 +142,10 @@ class LoopClosureConfig(_Config):
     sigma_floor: list[float] = Field([0.02, 0.02, 0.005], min_length=3, max_length=3,
                                      description="floor of a loop factor's σ (m, m, rad)")
     cauchy_k: float = Field(3.0, gt=0, description="Cauchy kernel width on whitened loop residuals")
+    consistency_probability: float = Field(
+        0.999, gt=0, lt=1, description="a loop whose residual after optimisation is beyond the χ²(3) "
+        "quantile at this probability sends every loop through graduated non-convexity, which takes "
+        "out the outliers")
     extra_updates: int = Field(4, ge=0, description="iSAM2 iterations after a loop closure")
     moved_threshold: float = Field(0.05, ge=0, description="m: a loop moving a keyframe more fires the event")
 

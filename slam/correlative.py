@@ -25,37 +25,10 @@ from dataclasses import dataclass
 import gtsam
 import numba
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
 from scipy.ndimage import distance_transform_edt
 
+from slam.config import CorrelativeConfig
 from slam.registration import transform
-
-
-class CorrelativeConfig(BaseModel):
-    """Correlative scan matching: the likelihood grid, the search window, and acceptance."""
-
-    model_config = ConfigDict(extra="forbid")
-
-    resolution: float = Field(0.05, gt=0, description="cell size of the likelihood grid and the "
-                                                      "translation step of the search (m)")
-    likelihood_sigma: float = Field(0.075, gt=0, description="σ of the likelihood field exp(-d²/2σ²), d the "
-                                                             "distance to the nearest reference point (m)")
-    levels: int = Field(6, ge=1, le=12, description="precomputation grids: level h bounds blocks of 2^h × 2^h "
-                                                    "cells, the coarsest 2^(levels-1) cells (count)")
-    window_xy: float = Field(2.0, ge=0, description="translations searched: ± this around the guess, "
-                                                    "along x and along y (m)")
-    window_deg: float = Field(30.0, ge=0, le=180, description="rotations searched: ± this around the "
-                                                              "guess (deg)")
-    min_score: float = Field(0.5, ge=0, le=1, description="mean likelihood per point below which the "
-                                                          "match is rejected (unitless, in [0, 1])")
-    max_points: int = Field(400, ge=1, description="more scan points than this are thinned by an "
-                                                   "adaptive voxel filter (count)")
-    max_range: float = Field(30.0, gt=0, description="scan points farther from the sensor are dropped; "
-                                                     "the farthest kept sets the angular step (m)")
-    min_points: int = Field(20, ge=1, description="fewer scan points than this: no match (count)")
-    covariance_cells: int = Field(3, ge=1, description="half-width of the neighbourhood of the optimum "
-                                                       "whose score surface gives the covariance, in "
-                                                       "cells and in angular steps (count)")
 
 
 @dataclass

@@ -3,13 +3,15 @@ from the wheel odometry's prediction (or a constant-velocity one when there is n
 
 from __future__ import annotations
 
-from collections import deque
+from collections import Counter, deque
 from dataclasses import dataclass
 
 import gtsam
 import numpy as np
 
 from slam.config import FrontEndConfig
+from slam.correlative import CorrelativeGrid
+from slam.correlative import match as correlative_match
 from slam.registration import Match, Registration, Submap
 
 
@@ -51,6 +53,9 @@ class ScanOdometry:
         self._last_delta = gtsam.Pose2()
         self._keyframes: deque = deque(maxlen=self.config.submap_keyframes)
         self._submap: Submap | None = None
+        self._grid: CorrelativeGrid | None = None     # the submap's, built when first needed
+        #: how often tracking needed the correlative search, and how often it won
+        self.counts: Counter = Counter()
 
     def odometry_covariance(self, delta: gtsam.Pose2) -> np.ndarray:
         """(3, 3) covariance of a wheel-odometry motion ``delta``: σ grows with the motion.
@@ -90,7 +95,9 @@ class ScanOdometry:
     def _register(self, points: np.ndarray, guess: gtsam.Pose2, prior) -> Match:
         """Fine levels first (the prediction is usually good). On a poor fit, the full
         coarse-to-fine schedule, with and without the odometry prior and from the constant-velocity
-        prediction too (wheel odometry can stall or jump), keeping whichever explains most points."""
+        prediction too (wheel odometry can stall or jump); if the fit is still poor, the correlative
+        search over metres and tens of degrees around the prediction, refined. Whichever explains
+        most points wins."""
         c = self.config
         match = self.registration.register(points, self._submap, guess, prior, start_level=c.start_level)
         if match.inlier_fraction >= c.retry_inlier_fraction:
@@ -102,10 +109,33 @@ class ScanOdometry:
             other = self.registration.register(points, self._submap, start, prior if with_prior else None)
             if other.inlier_fraction > match.inlier_fraction + 0.02:
                 match = other
+        if match.inlier_fraction < c.retry_inlier_fraction:
+            self.counts["correlative_searches"] += 1
+            window = c.correlative
+            if prior is not None:                  # the wheels bound where the scan can be
+                sigma = 3.0 / np.sqrt(np.diag(prior[1]))
+                window = window.model_copy(update={
+                    "window_xy": float(min(max(sigma[:2].max(), c.correlative_min_window[0]), window.window_xy)),
+                    "window_deg": float(min(max(np.degrees(sigma[2]), c.correlative_min_window[1]),
+                                            window.window_deg))})
+            found = correlative_match(self._correlative_grid(), points, guess, window)
+            if found is not None:
+                fine = len(c.registration.voxel_sizes) - 1
+                other = self.registration.register(points, self._submap, found.pose, start_level=fine)
+                if other.inlier_fraction > match.inlier_fraction + 0.02:
+                    self.counts["correlative_matches"] += 1
+                    match = other
         return match
+
+    def _correlative_grid(self) -> CorrelativeGrid:
+        if self._grid is None:
+            poses, points, _ = zip(*self._keyframes)
+            self._grid = CorrelativeGrid.from_scans(list(poses), list(points), self.config.correlative)
+        return self._grid
 
     def add_keyframe(self, pose: gtsam.Pose2, points: np.ndarray, normals: np.ndarray) -> None:
         """Put a keyframe's scan into the submap (which keeps the most recent ones)."""
         self._keyframes.append((pose, points, normals))
         poses, pts, nrm = zip(*self._keyframes)
         self._submap = Submap.from_scans(list(poses), list(pts), list(nrm), self.config.registration)
+        self._grid = None

@@ -12,6 +12,8 @@ import numpy as np
 
 from slam.back_end import PoseGraph
 from slam.config import LoopClosureConfig, RegistrationConfig
+from slam.correlative import CorrelativeGrid
+from slam.correlative import match as correlative_match
 from slam.registration import Match, Registration, Submap, transform
 
 
@@ -66,6 +68,7 @@ class LoopClosureDetector:
         self.config = config or LoopClosureConfig()
         self.registration = Registration(registration or RegistrationConfig())
         self.tried = 0
+        self.searches = 0          # correlative searches run for candidates with a poor guess
         #: why candidates were turned down: {"inliers": n, "degenerate": n, "asymmetric": n, ...}
         self.rejected: Counter = Counter()
 
@@ -128,6 +131,11 @@ class LoopClosureDetector:
             self.rejected["no_start"] += 1
             return None
         best = reg.register(points, submap, best_start, start_level=max(coarse - 1, 0))
+        if best_score < c.coarse_accept or self._poor_guess(candidate):
+            found = self._correlative(candidate, points, submap, [xj.between(graph.pose(i)) for i in members],
+                                      [scans[i][0] for i in members])
+            if found is not None and found.inlier_fraction > best.inlier_fraction:
+                best = found
         if best.inlier_fraction < c.min_inlier_fraction:
             self.rejected["inliers"] += 1
             return None
@@ -140,6 +148,29 @@ class LoopClosureDetector:
         error = candidate.predicted.localCoordinates(best.pose)
         d2 = float(error @ np.linalg.solve(candidate.covariance + best.covariance, error))
         return LoopClosure(candidate, best, d2)
+
+    def _poor_guess(self, candidate: Candidate) -> bool:
+        """Is the graph's prediction too uncertain for registration's basin (about a voxel)?"""
+        sigma = np.sqrt(np.diag(candidate.covariance))
+        return bool(np.any(sigma > self.config.poor_guess_sigma))
+
+    def _correlative(self, candidate: Candidate, points: np.ndarray, submap: Submap,
+                     poses: list[gtsam.Pose2], clouds: list[np.ndarray]) -> Match | None:
+        """The correlative search over the submap (j's frame) in a window of 3 σ of the predicted
+        relative pose (within the configured window), refined by registration at the finest level."""
+        c = self.config
+        self.searches += 1
+        sigma = 3.0 * np.sqrt(np.diag(candidate.covariance))
+        floor = np.asarray(c.poor_guess_sigma)
+        window = c.correlative.model_copy(update={
+            "window_xy": float(min(max(sigma[:2].max(), floor[:2].max()), c.correlative.window_xy)),
+            "window_deg": float(min(np.degrees(max(sigma[2], floor[2])), c.correlative.window_deg))})
+        found = correlative_match(CorrelativeGrid.from_scans(poses, clouds, window), points,
+                                  candidate.predicted, window)
+        if found is None:
+            return None
+        fine = len(self.registration.config.voxel_sizes) - 1
+        return self.registration.register(points, submap, found.pose, start_level=fine)
 
     def _symmetric(self, match: Match, j: int, k: int, graph: PoseGraph,
                    scans: list[tuple[np.ndarray, np.ndarray]]) -> bool:

@@ -6,6 +6,7 @@ from collections import Counter
 
 import gtsam
 import numpy as np
+from scipy.stats import chi2
 
 from slam.back_end import PoseGraph
 from slam.config import SlamConfig
@@ -135,8 +136,33 @@ class PoseSlam:
                 result.moved = max(result.moved, moved)
                 self.largest_correction = max(self.largest_correction, moved)
         if result.loops:
+            self._check_consistency(result)
+        if result.loops:
             result.pose = self.pose(len(self.scan_anchor) - 1)
             result.corrected = result.moved > c.moved_threshold
+
+    def _check_consistency(self, result: Localisation) -> None:
+        """The consistency layer over every accepted loop: when a loop disagrees with the map
+        after optimisation (its residual beyond the χ²(3) quantile at ``consistency_probability``),
+        graduated non-convexity over all loops decides which are outliers; they leave the graph
+        (counted as rejected by "consistency"), so a false loop cannot hold the map bent."""
+        c = self.config.loop_closure
+        residuals = self.graph.loop_residuals()
+        if residuals.size == 0 or residuals.max() <= chi2.ppf(c.consistency_probability, 3):
+            return
+        loop_edges = [k for k, edge in enumerate(self.graph.edges) if edge[4]]
+        outliers = self.graph.outlier_loops(c.consistency_probability)
+        if not outliers:
+            return
+        before = self.graph.positions()
+        self.graph.remove_edges(outliers, c.extra_updates)
+        out = {loop_edges.index(k) for k in outliers}
+        dropped = {id(loop) for m, loop in enumerate(self.loops) if m in out}
+        self.loops = [loop for m, loop in enumerate(self.loops) if m not in out]
+        result.loops = [loop for loop in result.loops if id(loop) not in dropped]
+        self.detector.rejected["consistency"] += len(outliers)
+        moved = float(np.max(np.linalg.norm(self.graph.positions() - before, axis=1)))
+        result.moved = max(result.moved, moved)
 
     def pose(self, i: int) -> gtsam.Pose2:
         """Scan i's current SLAM pose."""

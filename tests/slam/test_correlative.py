@@ -10,7 +10,8 @@ import pytest
 from numpy.lib.stride_tricks import sliding_window_view
 
 from slam.carmen import CarmenLog
-from slam.correlative import (CorrelativeConfig, CorrelativeGrid, angular_step, match, match_exhaustive,
+from slam.config import CorrelativeConfig
+from slam.correlative import (CorrelativeGrid, angular_step, match, match_exhaustive,
                               precompute, score, thin)
 from slam.registration import transform
 from wall_scans import cast
