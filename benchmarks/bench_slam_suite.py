@@ -117,7 +117,7 @@ def row(path: Path, relations_dir: Path, perturb: int, seed: int) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--logs", nargs="*", help="log file names (default: every log)")
+    parser.add_argument("--logs", nargs="*", help="logs whose file names start with these (default: every log)")
     parser.add_argument("--perturb", type=int, default=5, help="replays with 1 mm range noise per log")
     parser.add_argument("--seed", type=int, default=0, help="seed of the first perturbed replay")
     args = parser.parse_args()
@@ -128,7 +128,7 @@ def main() -> None:
         sys.exit("shared data not found: set GPEXPLORE_DATA")
     paths = sorted(p for p in (data / "logs").iterdir() if p.name.endswith((".clf", ".log", ".gz")))
     if args.logs:
-        paths = [p for p in paths if p.name in args.logs or p.name.split(".")[0] in args.logs]
+        paths = [p for p in paths if any(p.name.startswith(name) for name in args.logs)]
     crashes = 0
     for path in paths:
         tic = time.perf_counter()
