@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import gtsam
 import numpy as np
 
-from slam.config import CorrelativeConfig, FrontEndConfig
+from slam.config import FrontEndConfig
 from slam.correlative import CorrelativeGrid
 from slam.correlative import match as correlative_match
 from slam.registration import Match, Registration, Submap
@@ -96,48 +96,38 @@ class ScanOdometry:
         """Fine levels first (the prediction is usually good). On a poor fit, the full
         coarse-to-fine schedule, with and without the odometry prior and from the constant-velocity
         prediction too (wheel odometry can stall or jump); if the fit is still poor, the correlative
-        search over the window around the prediction, refined. Whichever explains most points wins,
-        among the answers inside the window: with wheel odometry, an answer farther from its
-        prediction than 3 σ (at least ``correlative_min_window``) is an alias, however many points
-        it explains (a room's symmetry, a corridor's repetition)."""
+        search over metres and tens of degrees around the prediction, refined. Whichever explains
+        most points wins."""
         c = self.config
         match = self.registration.register(points, self._submap, guess, prior, start_level=c.start_level)
         if match.inlier_fraction >= c.retry_inlier_fraction:
             return match
-        window = self._window(prior)
         velocity = self.pose.compose(self._last_delta)
         for start, with_prior in ((guess, True), (guess, False), (velocity, False)):
             if with_prior and prior is None:
                 continue
             other = self.registration.register(points, self._submap, start, prior if with_prior else None)
-            if other.inlier_fraction > match.inlier_fraction + 0.02 and _inside(other.pose, guess, window):
+            if other.inlier_fraction > match.inlier_fraction + 0.02:
                 match = other
         if match.inlier_fraction < c.retry_inlier_fraction:
             self.counts["correlative_searches"] += 1
+            window = c.correlative
+            if prior is not None:                  # the wheels bound where the scan can be
+                sigma = 3.0 / np.sqrt(np.diag(prior[1]))
+                window = window.model_copy(update={
+                    "window_xy": float(min(max(sigma[:2].max(), c.correlative_min_window[0]), window.window_xy)),
+                    "window_deg": float(min(max(np.degrees(sigma[2]), c.correlative_min_window[1]),
+                                            window.window_deg))})
             found = correlative_match(self._correlative_grid(), points, guess, window)
             if found is not None:
                 fine = len(c.registration.voxel_sizes) - 1
                 other = self.registration.register(points, self._submap, found.pose, start_level=fine)
-                if other.inlier_fraction > match.inlier_fraction + 0.02 and _inside(other.pose, guess, window):
+                if other.inlier_fraction > match.inlier_fraction + 0.02:
                     self.counts["correlative_matches"] += 1
                     match = other
         return match
 
-    def _window(self, prior) -> CorrelativeConfig:
-        """Where the scan can be around the prediction: the configured correlative window
-        without wheel odometry; with it, 3 σ of the wheels' prediction (at least
-        ``correlative_min_window``, at most the configured window)."""
-        c = self.config
-        if prior is None:
-            return c.correlative
-        sigma = 3.0 / np.sqrt(np.diag(prior[1]))
-        low_xy, low_deg = c.correlative_min_window
-        return c.correlative.model_copy(update={
-            "window_xy": float(min(max(sigma[:2].max(), low_xy), c.correlative.window_xy)),
-            "window_deg": float(min(max(np.degrees(sigma[2]), low_deg), c.correlative.window_deg))})
-
     def _correlative_grid(self) -> CorrelativeGrid:
-        """The correlative grid of the current submap, built when first needed."""
         if self._grid is None:
             poses, points, _ = zip(*self._keyframes)
             self._grid = CorrelativeGrid.from_scans(list(poses), list(points), self.config.correlative)
@@ -149,11 +139,3 @@ class ScanOdometry:
         poses, pts, nrm = zip(*self._keyframes)
         self._submap = Submap.from_scans(list(poses), list(pts), list(nrm), self.config.registration)
         self._grid = None
-
-
-def _inside(pose: gtsam.Pose2, guess: gtsam.Pose2, window: CorrelativeConfig) -> bool:
-    """Is ``pose`` within the search ``window`` of ``guess`` (± window_xy along x and y of the
-    guess's frame, ± window_deg)?"""
-    delta = guess.between(pose)
-    return bool(max(abs(delta.x()), abs(delta.y())) <= window.window_xy
-                and abs(np.degrees(delta.theta())) <= window.window_deg)
