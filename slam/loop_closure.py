@@ -131,7 +131,10 @@ class LoopClosureDetector:
             self.rejected["no_start"] += 1
             return None
         best = reg.register(points, submap, best_start, start_level=max(coarse - 1, 0))
-        if best_score < c.coarse_accept or self._poor_guess(candidate):
+        if self._poor_guess(candidate) or (best.inlier_fraction < c.min_inlier_fraction
+                                           and best_score < c.coarse_accept):
+            # a guess too uncertain for registration's basin (it may settle in a wrong local
+            # optimum), or registration failed from it: search metres and degrees around it
             found = self._correlative(candidate, points, submap, [xj.between(graph.pose(i)) for i in members],
                                       [scans[i][0] for i in members])
             if found is not None and found.inlier_fraction > best.inlier_fraction:
