@@ -19,7 +19,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from exploration.costmap import CostmapConfig, passable
 from exploration.frontier_methods import CFrontier, Frontier, GridFrontier, Reachable
 from exploration.goals import Blacklist, FrontierCluster, GoalConfig
-from exploration.paths import distance_field, near_distance, path_to
+from exploration.paths import distance_field, near_distance
 from mapping.occupancy import MapSnapshot
 
 

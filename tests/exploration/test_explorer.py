@@ -4,7 +4,7 @@ import gtsam
 import numpy as np
 import pytest
 
-from exploration.costmap import CostmapConfig, passable
+from exploration.costmap import passable
 from exploration.explorer import Explorer, ExplorerConfig
 from exploration.frontier import frontier_map
 from exploration.goals import GoalConfig

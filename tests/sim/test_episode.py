@@ -1,5 +1,4 @@
 import gtsam
-import numpy as np
 import pytest
 
 from sim.episode import EpisodeConfig, run_episode

@@ -13,7 +13,6 @@ from slam.front_end import ScanOdometry
 from slam.loop_closure import Candidate, LoopClosureDetector
 from slam.pose_slam import PoseSlam
 from slam.registration import scan_normals
-from slam.scan import LaserScan
 from wall_scans import cast
 
 CORRIDOR = [(1, 0.0, -50, 50), (1, 2.0, -50, 50)]          # two walls along x, 2 m apart
