@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import sys
 import time
 from pathlib import Path
@@ -25,7 +24,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from sim.data import shared_data_dir  # noqa: E402
+from sim.data import benchmark_data_dir  # noqa: E402
 from slam.carmen import CarmenLog  # noqa: E402
 from slam.config import RegistrationConfig  # noqa: E402
 from slam.config import CorrelativeConfig  # noqa: E402
@@ -58,11 +57,7 @@ def main() -> None:
                         help="scans i-1, i-2, ... in the reference (a small submap in the frame of i-1)")
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
-    if os.environ.get("OPENBLAS_NUM_THREADS") != "1":
-        print("warning: set OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1")
-    data = shared_data_dir()
-    if data is None:
-        sys.exit("shared data not found: set GPEXPLORE_DATA")
+    data = benchmark_data_dir()
     log = CarmenLog(data / "logs" / "intel-corrected.log.gz")
     config = CorrelativeConfig()
     rconfig = RegistrationConfig()

@@ -11,13 +11,12 @@ at 12x real time on a 6-core Xeon (Hess et al. 2016); graph mapping 0.004 ± 0.0
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from sim.data import shared_data_dir  # noqa: E402
+from sim.data import benchmark_data_dir  # noqa: E402
 from slam.carmen import CarmenLog  # noqa: E402
 from slam.config import SlamConfig  # noqa: E402
 from slam.evaluation import read_relations, relation_error  # noqa: E402
@@ -37,11 +36,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=1, help="full SLAM runs (timing spread)")
     args = parser.parse_args()
-    if os.environ.get("OPENBLAS_NUM_THREADS") != "1":
-        print("warning: set OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 (BLAS threads slow this 9-16x)")
-    data = shared_data_dir()
-    if data is None:
-        sys.exit("shared data not found: set GPEXPLORE_DATA")
+    data = benchmark_data_dir()
     log = CarmenLog(data / "logs" / "mit-csail.clf")
     relations = read_relations(data / "relations" / "mit-csail.relations")
     odometry = [r.odometry for r in log]

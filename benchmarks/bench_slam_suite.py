@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import os
 import sys
 import time
 import traceback
@@ -32,7 +31,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from sim.data import shared_data_dir  # noqa: E402
+from sim.data import benchmark_data_dir  # noqa: E402
 from sim.logs import replay_log  # noqa: E402
 from slam.agreement import agreement  # noqa: E402
 from slam.carmen import CarmenLog  # noqa: E402
@@ -121,11 +120,7 @@ def main() -> None:
     parser.add_argument("--perturb", type=int, default=5, help="replays with 1 mm range noise per log")
     parser.add_argument("--seed", type=int, default=0, help="seed of the first perturbed replay")
     args = parser.parse_args()
-    if os.environ.get("OPENBLAS_NUM_THREADS") != "1":
-        print("warning: set OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 (BLAS threads slow this 9-16x)")
-    data = shared_data_dir()
-    if data is None:
-        sys.exit("shared data not found: set GPEXPLORE_DATA")
+    data = benchmark_data_dir()
     paths = sorted(p for p in (data / "logs").iterdir() if p.name.endswith((".clf", ".log", ".gz")))
     if args.logs:
         paths = [p for p in paths if any(p.name.startswith(name) for name in args.logs)]

@@ -24,3 +24,17 @@ def shared_data_dir() -> Path | None:
         if candidate.is_dir():
             return candidate
     return None
+
+
+def benchmark_data_dir() -> Path:
+    """For a benchmark: the data folder (exit with a message when there is none), after a warning
+    when BLAS may run more than one thread (two threads on two cores slow the COM 9-16x)."""
+    if os.environ.get("OPENBLAS_NUM_THREADS") != "1":
+        print("warning: set OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 (BLAS threads slow this 9-16x)")
+    try:
+        data = shared_data_dir()
+    except FileNotFoundError as err:
+        raise SystemExit(str(err)) from None
+    if data is None:
+        raise SystemExit("shared data not found: set GPEXPLORE_DATA")
+    return data

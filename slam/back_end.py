@@ -43,6 +43,12 @@ class PoseGraph:
         self.edges: list[tuple[int, int, gtsam.Pose2, np.ndarray, bool]] = []
         self.fallbacks: Counter = Counter()
 
+    def _solver(self, factors: gtsam.NonlinearFactorGraph, values: gtsam.Values, qr: bool) -> gtsam.ISAM2:
+        """A new iSAM2 holding ``factors`` from ``values`` (one Gauss–Newton step taken)."""
+        isam = gtsam.ISAM2(self._params(qr))
+        isam.update(factors, values)
+        return isam
+
     def _params(self, qr: bool) -> gtsam.ISAM2Params:
         params = gtsam.ISAM2Params()
         params.setRelinearizeThreshold(self.config.relinearize_threshold)
@@ -106,12 +112,10 @@ class PoseGraph:
             everything, start = gtsam.NonlinearFactorGraph(self.factors), gtsam.Values(self.estimate)
             everything.push_back(graph)
             start.insert(values)
-            rebuilt = gtsam.ISAM2(self._params(qr=True))
             try:
-                rebuilt.update(everything, start)
+                self.isam = self._solver(everything, start, qr=True)
             except RuntimeError:
                 return False
-            self.isam = rebuilt
         self.factors.push_back(graph)
         self.estimate = self.isam.calculateEstimate()
         return True
@@ -153,8 +157,7 @@ class PoseGraph:
             if k not in drop:
                 factors.add(self.factors.at(k + 1))
         self.edges = [edge for k, edge in enumerate(self.edges) if k not in drop]
-        self.isam = gtsam.ISAM2(self._params(self.config.qr))
-        self.isam.update(factors, self.estimate)
+        self.isam = self._solver(factors, self.estimate, qr=self.config.qr)
         for _ in range(iterations):
             self.isam.update()
         self.factors = factors
