@@ -234,11 +234,23 @@ def termination_counts(results: dict[str, list[dict]]) -> dict[str, dict[str, in
     return counts
 
 
-def cell(value: dict, runs: int) -> str:
-    """A Table I entry: mean ± standard error, with the number of runs when some are missing."""
+#: Decimals of each Table I metric (by metrics key), the same for its mean and standard error.
+DECIMALS = {"travel_distance_m": 1, "sim_time_s": 1, "entropy_rate_nats_per_step": 2,
+            "final_map_entropy_nats": 0, "coverage": 1, "auc": 3, "travel_at_coverage_m": 1,
+            "ate_rmse_m": 3, "collisions": 1, "wall_time_s": 1, "missed_area_m2": 1}
+
+
+def _fixed(x: float, decimals: int) -> str:
+    return f"{round(x, decimals) + 0.0:.{decimals}f}"  # + 0.0: no "-0.0"
+
+
+def cell(value: dict, runs: int, decimals: int = 2) -> str:
+    """A Table I entry: mean ± standard error with ``decimals`` decimals each, with the number
+    of runs when some are missing."""
     if value["mean"] is None:
         return "—"
-    return f"{value['mean']:.4g} ± {value['stderr']:.2g}" + (f" (n={value['n']})" if value["n"] < runs else "")
+    return (f"{_fixed(value['mean'], decimals)} ± {_fixed(value['stderr'], decimals)}"
+            + (f" (n={value['n']})" if value["n"] < runs else ""))
 
 
 def table_markdown(runs: list[Run]) -> str:
@@ -251,8 +263,10 @@ def table_markdown(runs: list[Run]) -> str:
     for world, by_method in results(runs).items():
         methods = list(by_method)
         md += [f"## {world}", "", "| metric | " + " | ".join(methods) + " |", "|---|" + "---:|" * len(methods)]
-        for row in table(by_method):
-            md.append(f"| {row['metric']} | " + " | ".join(cell(row[m], planned[world, m]) for m in methods) + " |")
+        for (_, key, _), row in zip(ROWS, table(by_method), strict=True):
+            decimals = DECIMALS.get(key[0] if isinstance(key, tuple) else key, 2)
+            md.append(f"| {row['metric']} | "
+                      + " | ".join(cell(row[m], planned[world, m], decimals) for m in methods) + " |")
         finished_runs = ", ".join(f"{m} {len(by_method[m])}/{planned[world, m]}"
                                   + (f" ({lost[world, m]} failed)" if lost[world, m] else "") for m in methods)
         ended = "; ".join(f"{m}: " + ", ".join(f"{reason} {n}" for reason, n in reasons.items())
