@@ -3,7 +3,9 @@ built-in name, and choose where a robot starts in them."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import gtsam
@@ -88,19 +90,63 @@ def load_bitmap(path: str | Path, size: tuple[float, float] | None = None,
     return World(np.flipud(grey < threshold), res, (0.0, 0.0), name=path.name)
 
 
-def load_ros_map(path: str | Path) -> World:
-    """A world from a ROS map_server YAML (image, resolution, origin, negate, thresholds, mode).
+@dataclass(frozen=True)
+class RosMap:
+    """A ROS map_server map as map_server reads it.
 
-    Cells whose occupancy probability exceeds ``occupied_thresh`` are walls. Unknown cells
-    (between the thresholds) are walls too: the true world is closed where it is not known.
+    Attributes:
+        state: (h, w) int8, row 0 at the bottom: ``FREE`` (0), ``OCCUPIED`` (1) or ``UNKNOWN`` (-1).
+        resolution: cell size, m.
+        origin: (x, y) of the lower-left corner of cell (0, 0), m.
+        name: the YAML file's name.
+    """
+
+    state: np.ndarray
+    resolution: float
+    origin: tuple[float, float]
+    name: str
+
+    FREE = 0
+    OCCUPIED = 1
+    UNKNOWN = -1
+
+    def world(self) -> World:
+        """The true world of this map: only free cells are free; occupied and unknown cells are
+        walls (the world is closed where the map does not know it)."""
+        return World(self.state != self.FREE, (self.resolution, self.resolution), self.origin, name=self.name)
+
+
+def load_ros_map(path: str | Path) -> World:
+    """A world from a ROS map_server YAML: its free cells are free, its occupied and unknown
+    cells are walls (``read_ros_map``)."""
+    return read_ros_map(path).world()
+
+
+def read_ros_map(path: str | Path) -> RosMap:
+    """A ROS map_server YAML (image, resolution, origin, negate, thresholds, mode) and its image,
+    read as map_server reads them.
+
+    With ``p = (255 - level) / 255`` of a pixel's grey level (``p = level / 255`` with ``negate``),
+    modes ``trinary`` and ``scale`` give occupied where ``p > occupied_thresh``, free where
+    ``p < free_thresh``, unknown in between (map_saver's 205 is p = 0.196078, just above its
+    free_thresh 0.196). Mode ``raw`` takes the level (after ``negate``) as the occupancy in
+    percent: above 100 is unknown, the thresholds apply to level / 100 as above.
+
+    Raises:
+        FileNotFoundError: the YAML or its image is missing (the file named).
+        ValueError: a key is missing or unreadable, or the image is not one (the file and key named).
     """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such map YAML")
     try:
-        meta = yaml.safe_load(path.read_text())
+        meta = yaml.safe_load(path.read_bytes().decode())
+    except UnicodeDecodeError as err:
+        raise ValueError(f"{path}: not a text file: {err}") from None
     except yaml.YAMLError as err:
-        raise ValueError(f"{path}: not valid YAML: {err}") from None
+        raise ValueError(f"{path}: not valid YAML: {' '.join(str(err).split())}") from None
+    except OSError as err:
+        raise FileNotFoundError(f"{path}: cannot read: {err}") from None
     if not isinstance(meta, dict):
         raise ValueError(f"{path}: expected a mapping of map_server keys, got {type(meta).__name__}")
 
@@ -111,20 +157,30 @@ def load_ros_map(path: str | Path) -> World:
             return default
         try:
             return convert(meta[name])
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise ValueError(f"{path}: key '{name}' has an unreadable value {meta[name]!r}") from None
 
-    image = path.parent / key("image", str)
+    def coordinates(value) -> list[float]:
+        if not isinstance(value, (list, tuple)):
+            raise TypeError("not a list")
+        return [float(v) for v in value]
+
+    def text(value) -> str:
+        if not isinstance(value, str) or not value:
+            raise TypeError("not a name")
+        return value
+
+    image = path.parent / key("image", text)
     resolution = key("resolution", float)
-    origin = key("origin", lambda o: [float(v) for v in o])
+    origin = key("origin", coordinates)
     negate = key("negate", int, 0)
     occupied_thresh = key("occupied_thresh", float, 0.65)
     free_thresh = key("free_thresh", float, 0.196)
     mode = key("mode", str, "trinary")
-    if not resolution > 0:
+    if not (resolution > 0 and math.isfinite(resolution)):
         raise ValueError(f"{path}: key 'resolution' must be positive, got {resolution}")
-    if len(origin) not in (2, 3):
-        raise ValueError(f"{path}: key 'origin' must be [x, y, yaw], got {meta['origin']!r}")
+    if len(origin) not in (2, 3) or not all(math.isfinite(v) for v in origin):
+        raise ValueError(f"{path}: key 'origin' must be [x, y, yaw] (finite), got {meta['origin']!r}")
     if len(origin) == 3 and origin[2] != 0.0:
         raise ValueError(f"{path}: key 'origin' has yaw {origin[2]}; rotated maps are not supported")
     if not 0 <= free_thresh <= occupied_thresh <= 1:
@@ -132,17 +188,26 @@ def load_ros_map(path: str | Path) -> World:
                          f"got {free_thresh}, {occupied_thresh}")
     if mode not in ("trinary", "scale", "raw"):
         raise ValueError(f"{path}: key 'mode' must be trinary, scale or raw, got {mode!r}")
-    grey = _read_grey(image)
+    level = _read_levels(image)
+    if negate:
+        level = 255.0 - level
     if mode == "raw":
-        occupied = grey * 255.0 > 100.0 * occupied_thresh
+        p = np.where(level <= 100, level / 100.0, np.nan)
     else:
-        p = grey if negate else 1.0 - grey
-        occupied = p > free_thresh  # occupied, and unknown treated as occupied
-    return World(np.flipud(occupied), (resolution, resolution), tuple(origin[:2]), name=path.name)
+        p = (255.0 - level) / 255.0
+    state = np.full(level.shape, RosMap.UNKNOWN, np.int8)
+    state[p > occupied_thresh] = RosMap.OCCUPIED
+    state[p < free_thresh] = RosMap.FREE
+    return RosMap(np.flipud(state), resolution, (origin[0], origin[1]), path.name)
 
 
 def _read_grey(path: Path) -> np.ndarray:
     """(h, w) grey levels in [0, 1], row 0 at the top of the image."""
+    return _read_levels(path) / 255.0
+
+
+def _read_levels(path: Path) -> np.ndarray:
+    """(h, w) grey levels in [0, 255], row 0 at the top of the image; transparent pixels are white."""
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such image file")
     try:
@@ -151,8 +216,9 @@ def _read_grey(path: Path) -> np.ndarray:
                 image = image.convert("RGBA")
                 background = Image.new("RGBA", image.size, "white")
                 image = Image.alpha_composite(background, image)
-            grey = np.asarray(image.convert("L"), dtype=float) / 255.0
-    except (UnidentifiedImageError, OSError) as err:
+            grey = np.asarray(image.convert("L"), dtype=float)
+    except (UnidentifiedImageError, OSError, ValueError, SyntaxError, Image.DecompressionBombError) as err:
+        # Pillow reports some malformed files as SyntaxError or ValueError
         raise ValueError(f"{path}: not a readable image: {err}") from None
     if grey.size == 0:
         raise ValueError(f"{path}: image is empty")

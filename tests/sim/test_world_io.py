@@ -3,9 +3,11 @@ import csv
 import gtsam
 import numpy as np
 import pytest
+import yaml
 from PIL import Image
 
-from sim.world_io import StartError, has_own_scale, load_bitmap, load_ros_map, load_world, start_pose
+from sim.world_io import (RosMap, StartError, has_own_scale, load_bitmap, load_ros_map, load_world, read_ros_map,
+                          start_pose)
 from sim.worlds import BUILTIN_WORLDS, corner_start
 
 
@@ -173,3 +175,41 @@ def test_stage_cave_scaled_as_in_the_paper(shared_data):
     assert world.resolution == pytest.approx((0.04, 0.04))
     # the Stage cave has no outer wall: off the bitmap counts as occupied
     assert world.is_occupied(np.array([-0.01, 10.0])) and world.is_occupied(np.array([10.0, 20.01]))
+
+
+def test_exported_map_reloads_with_its_known_and_unknown_areas(tmp_path):
+    """export -> ROS map -> world: free cells stay free, occupied and unknown cells are not free
+    (map_saver's 205 with free_thresh 0.196 is unknown; with 0.25 it read as free)."""
+    from mapping.export import write_ros_map as export_ros_map
+
+    rng = np.random.default_rng(0)
+    prob = rng.choice([0.05, 0.5, 0.95, np.nan], size=(30, 40), p=[0.5, 0.3, 0.15, 0.05])
+    truth = np.full(prob.shape, RosMap.UNKNOWN)
+    truth[prob <= 0.25], truth[prob >= 0.65] = RosMap.FREE, RosMap.OCCUPIED
+    origin, resolution = np.array([-3.05, 2.05]), 0.1                       # centre of cell (0, 0)
+    yaml_path = export_ros_map(tmp_path / "map.pgm", prob, origin, resolution)
+    meta = yaml.safe_load(yaml_path.read_text())
+    assert (meta["mode"], meta["negate"], meta["occupied_thresh"], meta["free_thresh"]) == ("trinary", 0, 0.65, 0.196)
+    ros = read_ros_map(yaml_path)
+    np.testing.assert_array_equal(ros.state, truth)
+    world = load_world(yaml_path)
+    assert world.origin == pytest.approx((-3.1, 2.0)) and world.resolution == pytest.approx((0.1, 0.1))
+    np.testing.assert_array_equal(world.occupied, truth != RosMap.FREE)
+    assert world.occupied.sum() < prob.size and (truth == RosMap.UNKNOWN).sum() > 0
+    # a point in an unknown cell is a wall of the world, one in a free cell is not
+    iy, ix = np.argwhere(truth == RosMap.UNKNOWN)[0]
+    assert world.is_occupied(np.array([-3.1 + (ix + 0.5) * 0.1, 2.0 + (iy + 0.5) * 0.1]))
+    iy, ix = np.argwhere(truth == RosMap.FREE)[0]
+    assert not world.is_occupied(np.array([-3.1 + (ix + 0.5) * 0.1, 2.0 + (iy + 0.5) * 0.1]))
+
+
+@pytest.mark.parametrize("mode, negate, pixels, expected", [
+    ("trinary", 0, [0, 205, 254, 255, 80, 100], [1, -1, 0, 0, 1, -1]),
+    ("trinary", 1, [255, 50, 1, 0], [1, -1, 0, 0]),
+    ("scale", 0, [0, 150, 254], [1, -1, 0]),
+    ("raw", 0, [0, 10, 50, 100, 255], [0, 0, -1, 1, -1]),
+])
+def test_ros_map_reads_as_map_server(tmp_path, mode, negate, pixels, expected):
+    path = write_ros_map(tmp_path, f"image: map.pgm\nresolution: 1\norigin: [0, 0, 0]\nmode: {mode}\n"
+                         f"negate: {negate}\n", np.array([pixels]))
+    np.testing.assert_array_equal(read_ros_map(path).state, [expected])
