@@ -23,6 +23,26 @@ app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Autonomous exploration on continuous Gaussian-process frontier maps.")
 console = Console()
 
+def _version(value: bool) -> None:
+    """``--version``: the installed package's version, then exit."""
+    if value:
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            typer.echo(f"gpexplore {version('gpexplore')}")
+        except PackageNotFoundError:            # run from a source tree that was never installed
+            typer.echo("gpexplore (not installed: version unknown)")
+        raise typer.Exit()
+
+
+@app.callback()
+def main(
+    version: Annotated[bool, typer.Option(
+        "--version", callback=_version, is_eager=True, help="print the version and exit")] = False,
+):
+    """Autonomous exploration on continuous Gaussian-process frontier maps."""
+
+
 #: Steps between animation frames for ``explore --animate`` when the configuration sets none.
 ANIMATE_EVERY = 10
 

@@ -252,3 +252,18 @@ def test_a_killed_campaign_resumes_without_redoing_finished_runs(tmp_path):
     assert f"{len(done)} runs were done before, {4 - len(done)} finished now, 0 failed" in again.stdout
     assert all(m.exists() for m in metrics)
     assert {m: m.stat().st_mtime_ns for m in done} == done
+
+
+def test_version_is_the_package_version_and_the_license_file_matches_pyproject():
+    import sys
+    from pathlib import Path
+
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:
+        import tomli as tomllib
+    root = Path(__file__).resolve().parents[2]
+    project = tomllib.loads((root / "pyproject.toml").read_text())["project"]
+    result = runner.invoke(app, ["--version"])
+    assert result.exit_code == 0 and result.output.strip() == f"gpexplore {project['version']}"
+    assert project["license"] == "MIT" and (root / "LICENSE").read_text().startswith("MIT License")
