@@ -7,10 +7,12 @@ trajectories are not copied per frame, they are the run's own, cut at the frame'
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
 from exploration.stack import Stack, StackStep
 from slam.atomic import replaced_atomically
@@ -90,9 +92,10 @@ class FrameRecorder:
                      stack.loop_segments().astype(np.float32))
 
 
-def write_animation(folder: str | Path, result, fps: int = FPS) -> list[Path]:
-    """animation.gif (Pillow) of ``result.frames``, and animation.mp4 when ffmpeg is on PATH;
-    returns the files written.
+def write_animation(folder: str | Path, result, fps: int = FPS, progress: bool = False) -> list[Path]:
+    """animation.gif (Pillow) of ``result.frames``, and animation.mp4 when ffmpeg is on PATH
+    (else a warning says it was skipped); returns the files written. ``progress`` shows a
+    progress bar over the frames drawn.
 
     Each frame: the true world faded, the map (unobserved cells transparent), the frontier
     clusters and the goal with its path, the estimated trajectory up to the frame (the true
@@ -105,7 +108,7 @@ def write_animation(folder: str | Path, result, fps: int = FPS) -> list[Path]:
     from matplotlib.animation import FFMpegWriter, PillowWriter
     from matplotlib.collections import LineCollection
 
-    from sim.figures import positions
+    from sim.figures import X_LABEL, Y_LABEL, positions
 
     folder = Path(folder)
     world, frames = result.world, result.frames
@@ -126,7 +129,7 @@ def write_animation(folder: str | Path, result, fps: int = FPS) -> list[Path]:
     loops = LineCollection([], colors="lime", lw=1.2, label="loop closure")
     ax.add_collection(loops)
     xmin, xmax, ymin, ymax = world.extent
-    ax.set(xlim=(xmin, xmax), ylim=(ymin, ymax), aspect="equal", xlabel="x (m)", ylabel="y (m)")
+    ax.set(xlim=(xmin, xmax), ylim=(ymin, ymax), aspect="equal", xlabel=X_LABEL, ylabel=Y_LABEL)
     ax.legend(loc="upper right", fontsize=7)
     # fixed margins, no layout engine: with one, savefig draws every frame twice
     fig.subplots_adjust(left=0.12, right=0.97, bottom=0.08, top=0.94)
@@ -149,13 +152,20 @@ def write_animation(folder: str | Path, result, fps: int = FPS) -> list[Path]:
     writers = {"animation.gif": PillowWriter(fps=fps)}
     if FFMpegWriter.isAvailable():
         writers["animation.mp4"] = FFMpegWriter(fps=fps)
+    else:
+        warnings.warn("ffmpeg is not on PATH: animation.mp4 skipped, animation.gif only "
+                      "(install ffmpeg for the MP4)", stacklevel=2)
     written = []
+    bar = tqdm(total=len(frames) * len(writers), desc="animation", unit="frame", disable=not progress)
     for name, writer in writers.items():
+        bar.set_postfix_str(name)
         with replaced_atomically(folder / name) as tmp:
             with writer.saving(fig, tmp, dpi=80):
                 for f in frames:
                     draw(f)
                     writer.grab_frame()
+                    bar.update()
         written.append(folder / name)
+    bar.close()
     plt.close(fig)
     return written

@@ -120,3 +120,26 @@ def test_large_maps_are_recorded_strided_over_the_same_extent(run, monkeypatch):
     assert small.extent[0] == full.extent[0] and small.extent[2] == full.extent[2]
     cell = stride * run.stack.map.frame.resolution
     assert 0 <= small.extent[1] - full.extent[1] < cell and 0 <= small.extent[3] - full.extent[3] < cell
+
+
+def test_without_ffmpeg_the_mp4_is_skipped_with_a_warning(run, tmp_path, monkeypatch):
+    from matplotlib.animation import FFMpegWriter
+
+    monkeypatch.setattr(FFMpegWriter, "isAvailable", classmethod(lambda cls: False))
+    with pytest.warns(UserWarning, match="ffmpeg is not on PATH: animation.mp4 skipped"):
+        written = write_animation(tmp_path, run)
+    assert written == [tmp_path / "animation.gif"]
+
+
+def test_rendering_shows_progress_when_asked(run, tmp_path, monkeypatch, capsys):
+    from matplotlib.animation import FFMpegWriter
+
+    monkeypatch.setattr(FFMpegWriter, "isAvailable", classmethod(lambda cls: False))
+    with pytest.warns(UserWarning):
+        write_animation(tmp_path, run)
+    assert capsys.readouterr().err == ""                 # quiet unless asked
+    with pytest.warns(UserWarning):
+        write_animation(tmp_path, run, progress=True)
+    n = len(run.frames)
+    err = capsys.readouterr().err
+    assert "animation" in err and f"{n}/{n}" in err     # a bar over the frames drawn, to the end
