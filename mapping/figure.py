@@ -9,7 +9,8 @@ import numpy as np
 
 def com_figure(path: str | Path, com, poses_xy: np.ndarray, hits_xy: np.ndarray | None = None,
                title: str = "") -> None:
-    """Save a 2 x 2 figure: (a) sensor poses (n, 2) and hits (k, 2), (b) Λo, (c) Λf, (d) Λ."""
+    """Save a 2 x 2 figure: (a) sensor poses (n, 2) and hits (k, 2), (b) Λo, (c) Λf, (d) Λ, each in grey
+    as map viewers draw occupancy (free white, occupied black, unseen 0.5 mid-grey)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -26,9 +27,9 @@ def com_figure(path: str | Path, com, poses_xy: np.ndarray, hits_xy: np.ndarray 
               (axes[1, 0], com.prob_free(), "(c) free-space map Λf"),
               (axes[1, 1], com.prob(), "(d) continuous occupancy map Λ"))
     for ax, grid, name in panels:
-        im = ax.imshow(grid, origin="lower", extent=(x0, x1, y0, y1), cmap="jet", vmin=0, vmax=1)
+        im = ax.imshow(grid, origin="lower", extent=(x0, x1, y0, y1), cmap="gray_r", vmin=0, vmax=1)
         ax.set(title=name, aspect="equal")
-    fig.colorbar(im, ax=axes[:, 1], shrink=0.6, label="occupancy probability")
+    fig.colorbar(im, ax=axes[:, 1], shrink=0.6, label="occupancy probability (unseen 0.5)")
     for ax in axes.ravel():
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")

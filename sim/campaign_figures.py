@@ -25,7 +25,7 @@ def travel_figure(path: str | Path, runs: dict[str, list[dict]], world: str) -> 
     rng = np.random.default_rng(0)  # jitter only spreads the dots sideways
     for k, values in enumerate(travel, start=1):
         ax.plot(k + rng.uniform(-0.12, 0.12, len(values)), values, "o", ms=5, alpha=0.7, color=f"C{k - 1}")
-    ax.set(ylabel="travel distance (m)", title=f"{world}: travel distance per run")
+    ax.set(ylabel="travel distance [m]", title=f"{world}: travel distance per run")
     ax.grid(alpha=0.3, axis="y")
     save_figure(fig, path)
 
@@ -53,8 +53,8 @@ def coverage_figure(path: str | Path, curves: dict[str, list], world: str) -> No
     fig, (by_travel, by_time) = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
     _plot_bands(by_travel, curves, "travel_m", "coverage", 100.0)
     _plot_bands(by_time, curves, "time_s", "coverage", 100.0)
-    by_travel.set(xlabel="travel distance (m)", ylabel="coverage (%)", title=f"{world}: coverage over travel")
-    by_time.set(xlabel="robot time (s)", title=f"{world}: coverage over time")
+    by_travel.set(xlabel="travel distance [m]", ylabel="coverage [%]", title=f"{world}: coverage over travel")
+    by_time.set(xlabel="robot time [s]", title=f"{world}: coverage over time")
     save_figure(fig, path)
 
 
@@ -63,5 +63,5 @@ def entropy_band_figure(path: str | Path, curves: dict[str, list], world: str) -
     ±1 standard deviation band (paper Fig. 1 over seeds)."""
     fig, ax = plt.subplots(figsize=(7, 4))
     _plot_bands(ax, curves, "step", "entropy_nats")
-    ax.set(xlabel="step", ylabel="map entropy (nats)", title=f"{world}: map entropy, mean ± s.d. over runs")
+    ax.set(xlabel="step", ylabel="map entropy [nats]", title=f"{world}: map entropy, mean ± s.d. over runs")
     save_figure(fig, path)
