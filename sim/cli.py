@@ -22,6 +22,14 @@ from sim.cli_options import (Builtin, Config, Engine, Log, LogPoses, MaxSteps, M
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Autonomous exploration on continuous Gaussian-process frontier maps.")
 console = Console()
+#: Warnings go to standard error, so that piped results stay clean.
+err_console = Console(stderr=True)
+
+
+def warn(message: str) -> None:
+    """A warning on standard error: ``warning: message``."""
+    err_console.print(f"[yellow]warning:[/yellow] {escape(message)}")
+
 
 def _version(value: bool) -> None:
     """``--version``: the installed package's version, then exit."""
@@ -71,7 +79,7 @@ def world(
     out: Annotated[Optional[Path], typer.Option(dir_okay=False, help="write a figure of the world here (PNG)")] = None,
 ):
     """Load a world and print its frame, size and, from a start, the reachable free area."""
-    from sim.world_io import load_world
+    from sim.world_io import load_world, start_area
 
     with _world_errors():
         w = load_world(world, size=size, resolution=resolution)
@@ -80,11 +88,12 @@ def world(
                   f"{width:.3f} x {height:.3f} m, origin {w.origin}")
     console.print(f"occupied: {100 * w.occupied.mean():.1f} % of cells")
     if start:
-        try:
-            area = w.reachable(start, radius).sum() * rx * ry
-        except ValueError as err:
-            raise typer.BadParameter(str(err), param_hint="'--start'") from None
-        console.print(f"reachable free space from {start}: {area:.1f} m²")
+        with _world_errors():
+            area = start_area(w, start, radius)
+        console.print(f"reachable free space from ({start[0]:g}, {start[1]:g}): {area.reachable_m2:.1f} m² "
+                      f"({100 * area.share:.1f} % of the {area.free_m2:.1f} m² a robot of radius {radius:g} m fits in)")
+        if area.enclosed:
+            warn(area.warning())
     if out:
         import matplotlib.pyplot as plt
 
@@ -328,7 +337,7 @@ def explore(
     config.toml, the configuration used (--config config.toml with the same seed runs it again)."""
     from sim.episode import run_episode
     from sim.results import write_episode
-    from sim.world_io import load_world, start_pose
+    from sim.world_io import load_world, start_area, start_pose
 
     cfg = _config_for(episode_config(config), method, poses, max_steps)
     if animate and not cfg.animate_every:
@@ -336,6 +345,9 @@ def explore(
     with _world_errors():
         w = load_world(world, size=size, resolution=resolution)
         pose = start_pose(world, w, cfg.robot.radius, start)
+    area = start_area(w, (pose.x(), pose.y()), cfg.robot.radius)
+    if area.enclosed:
+        warn(area.warning())
     if rerun:
         from sim.rerun_log import RerunLog
 

@@ -12,6 +12,7 @@ from sim.config_file import CONFIG_NAME, write_config
 from sim.animation import write_animation
 from sim.episode import EpisodeResult
 from sim.figures import entropy_figure, frontier_figure, map_figure
+from sim.world_io import start_area
 from slam.atomic import write_json_atomic, write_text_atomic
 from slam.pose_slam import PoseSlam
 from slam.poses import positions
@@ -25,8 +26,8 @@ CURVE_COLUMNS = ("step", "time_s", "travel_m", "coverage", "entropy_nats")
 def write_episode(out: str | Path, result: EpisodeResult) -> None:
     """metrics.json, config.toml (the run's configuration), curve.csv, trajectory.tum,
     ground_truth.tum, graph.g2o (Pose SLAM), com.npz (a COM), map.pgm + map.yaml and figures/ (with the
-    animation when frames were recorded) in ``out``; metrics.json is written last, so a folder
-    that has it holds a finished run."""
+    animation when frames were recorded) in ``out``; metrics.json, with the start's area
+    (``start_metrics``), is written last, so a folder that has it holds a finished run."""
     out = Path(out)
     stack = result.stack
     if result.config is not None:
@@ -41,7 +42,18 @@ def write_episode(out: str | Path, result: EpisodeResult) -> None:
         save_com(out / "com.npz", stack.map)
     write_ros_map(out / "map.pgm", prob, stack.map.frame.origin, stack.map.frame.resolution)
     _figures(out / "figures", result, prob)
-    write_json_atomic(out / "metrics.json", result.metrics)
+    write_json_atomic(out / "metrics.json", {**result.metrics, **start_metrics(result)})
+
+
+def start_metrics(result: EpisodeResult) -> dict:
+    """metrics.json's description of the start's area (``sim.world_io.StartArea``): reachable and
+    free area, share, ``start_enclosed``, and the warning about an enclosed start in ``warnings``."""
+    if result.world is None or result.config is None or not result.truth:
+        return {}
+    start = result.truth[0]
+    area = start_area(result.world, (start.x(), start.y()), result.config.robot.radius)
+    warnings = list(result.metrics.get("warnings", [])) + ([area.warning()] if area.enclosed else [])
+    return {**area.metrics(), "warnings": warnings}
 
 
 def _figures(folder: Path, result: EpisodeResult, prob: np.ndarray) -> None:

@@ -17,8 +17,68 @@ from sim.world import World
 from sim.worlds import BUILTIN_WORLDS, corner_start
 
 
+#: A start from which the robot reaches less free space than this (m²), or less than this share
+#: of the free space of the world it fits in, is in an enclosed pocket (the Stage cave's hollow
+#: obstacles hold pockets of about 4 m², its open space about 300 m²).
+ENCLOSED_AREA_M2 = 5.0
+ENCLOSED_SHARE = 0.05
+
+
 class StartError(ValueError):
     """A start pose where the robot's disc is not in free space."""
+
+
+@dataclass(frozen=True)
+class StartArea:
+    """The free space a robot reaches from its start, against all the free space it fits in.
+
+    Attributes:
+        start: (x, y) of the start, m.   reachable_m2: reachable free area, m².
+        free_m2: area of the world where the robot's disc fits, m².
+    """
+
+    start: tuple[float, float]
+    reachable_m2: float
+    free_m2: float
+
+    @property
+    def share(self) -> float:
+        """Reachable share of the free space the robot fits in, in [0, 1]."""
+        return self.reachable_m2 / self.free_m2 if self.free_m2 > 0 else 0.0
+
+    @property
+    def enclosed(self) -> bool:
+        """Whether the start is in a pocket: a tiny area, or a tiny share of the world's."""
+        return self.reachable_m2 < ENCLOSED_AREA_M2 or self.share < ENCLOSED_SHARE
+
+    def warning(self) -> str | None:
+        """What a user should be told about an enclosed start; None for an ordinary one."""
+        if not self.enclosed:
+            return None
+        x, y = self.start
+        return (f"the start ({x:.2f}, {y:.2f}) is in an enclosed pocket: it reaches {self.reachable_m2:.1f} m² "
+                f"of free space, {100 * self.share:.1f} % of the {self.free_m2:.1f} m² the robot fits in; "
+                f"coverage is measured against the pocket only")
+
+    def metrics(self) -> dict:
+        """The entries of metrics.json that describe the start's area."""
+        return {"reachable_area_m2": self.reachable_m2, "free_area_m2": self.free_m2,
+                "reachable_share": self.share, "start_enclosed": self.enclosed}
+
+
+def start_area(world: World, start_xy: Sequence[float], radius: float) -> StartArea:
+    """The reachable free space from ``start_xy`` (m) for a robot of ``radius`` m.
+
+    Raises:
+        StartError: the robot's disc at the start is not in free space.
+    """
+    x, y = float(start_xy[0]), float(start_xy[1])
+    try:
+        reachable = world.reachable((x, y), radius)
+    except ValueError:
+        raise StartError(f"start ({x:.2f}, {y:.2f}) is not free for a robot of radius {radius:g} m") from None
+    cell = world.resolution[0] * world.resolution[1]
+    return StartArea((x, y), float(reachable.sum() * cell), float((world.clearance() >= radius).sum() * cell))
 
 
 def load_world(spec: str | Path, size: tuple[float, float] | None = None,

@@ -97,6 +97,7 @@ def test_explore_writes_every_result(tmp_path, method):
         assert key in metrics, key
     assert metrics["termination_reason"] in ("frontiers_exhausted", "no_reachable_goal")
     assert metrics["coverage"] > 0.95 and metrics["collisions"] == 0
+    assert metrics["start_enclosed"] is False and metrics["warnings"] == [] and metrics["reachable_area_m2"] > 5
     products = ["trajectory.tum", "ground_truth.tum", "graph.g2o", "map.pgm", "map.yaml",
                 "figures/map_trajectory.png", "figures/frontier_maps.png", "figures/entropy.png"]
     if method == "gp":
@@ -267,3 +268,40 @@ def test_version_is_the_package_version_and_the_license_file_matches_pyproject()
     result = runner.invoke(app, ["--version"])
     assert result.exit_code == 0 and result.output.strip() == f"gpexplore {project['version']}"
     assert project["license"] == "MIT" and (root / "LICENSE").read_text().startswith("MIT License")
+
+
+def pocket_world(tmp_path):
+    """A 10 m x 10 m room (0.05 m/px) holding a closed 2 m box whose inside is centred on (7, 7)."""
+    from PIL import Image
+
+    pixels = np.full((200, 200), 255, dtype=np.uint8)
+    pixels[:2], pixels[-2:], pixels[:, :2], pixels[:, -2:] = 0, 0, 0, 0
+    top, left = 200 - 160, 120                      # rows run top down: y 6..8 m is rows 40..80
+    pixels[top:top + 40, left:left + 2] = pixels[top:top + 40, left + 38:left + 40] = 0
+    pixels[top:top + 2, left:left + 40] = pixels[top + 38:top + 40, left:left + 40] = 0
+    path = tmp_path / "pocket.png"
+    Image.fromarray(pixels).save(path)
+    return path
+
+
+def test_a_start_in_an_enclosed_pocket_is_warned_about_and_recorded(tmp_path):
+    world = pocket_world(tmp_path)
+    result = runner.invoke(app, ["world", str(world), "--resolution", "0.05", "--start", "7", "7"])
+    assert result.exit_code == 0 and "enclosed pocket" in one_line(result.output)
+    result = runner.invoke(app, ["world", str(world), "--resolution", "0.05", "--start", "3", "3"])
+    assert result.exit_code == 0 and "enclosed" not in result.output
+    out = tmp_path / "run"
+    result = runner.invoke(app, ["explore", "--world", str(world), "--resolution", "0.05", "--start", "7", "7", "0",
+                                 "--method", "grid", "--poses", "truth", "--max-steps", "30", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "warning: the start (7.00, 7.00) is in an enclosed pocket" in one_line(result.output)
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["start_enclosed"] is True and metrics["reachable_area_m2"] < 3.0
+    assert metrics["reachable_share"] < 0.05 and "enclosed pocket" in metrics["warnings"][0]
+
+
+def test_a_start_outside_a_world_is_named_without_numpy_reprs():
+    result = runner.invoke(app, ["world", "cave", "--start", "5", "5"])
+    assert result.exit_code == 2
+    assert "'--start': start (5.00, 5.00) is not free for a robot of radius 0.25 m" in one_line(result.output)
+    assert "np.float64" not in result.output
