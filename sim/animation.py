@@ -108,7 +108,7 @@ def write_animation(folder: str | Path, result, fps: int = FPS, progress: bool =
     from matplotlib.animation import FFMpegWriter, PillowWriter
     from matplotlib.collections import LineCollection
 
-    from sim.figures import X_LABEL, Y_LABEL, positions
+    from sim.figures import ESTIMATE, LOOP, TRUE_PATH, X_LABEL, Y_LABEL, positions
 
     folder = Path(folder)
     world, frames = result.world, result.frames
@@ -123,10 +123,11 @@ def write_animation(folder: str | Path, result, fps: int = FPS, progress: bool =
     frontier = ax.scatter([], [], s=2, c=[], cmap="tab10", vmin=0, vmax=10)
     (path,) = ax.plot([], [], "--", color="magenta", lw=1.0)
     (goal,) = ax.plot([], [], "o", mfc="none", mec="magenta", ms=10, mew=2, label="goal")
-    (true_line,) = ax.plot([], [], "-", color="tab:green", lw=0.6, label="true path")
-    (estimate_line,) = ax.plot([], [], "-", color="tab:red", lw=1.2, label="estimate")
-    (robot,) = ax.plot([], [], "^", color="tab:red", ms=7)
-    loops = LineCollection([], colors="lime", lw=1.2, label="loop closure")
+    # the estimate wide and the truth thin on top of it, as in map_trajectory.png
+    (estimate_line,) = ax.plot([], [], "-", color=ESTIMATE, lw=1.8, label="estimate")
+    (true_line,) = ax.plot([], [], "-", color=TRUE_PATH, lw=0.7, label="true path")
+    (robot,) = ax.plot([], [], "^", mfc=ESTIMATE, mec="black", ms=7)
+    loops = LineCollection([], colors=LOOP, lw=1.2, label="loop closure")
     ax.add_collection(loops)
     xmin, xmax, ymin, ymax = world.extent
     ax.set(xlim=(xmin, xmax), ylim=(ymin, ymax), aspect="equal", xlabel=X_LABEL, ylabel=Y_LABEL)
