@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy import ndimage
+from scipy.spatial import cKDTree
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 
@@ -13,10 +14,8 @@ class CostmapConfig(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     free_below: float = Field(0.35, gt=0, lt=1, description="Λ below this is free")
-    occupied_above: float = Field(0.65, gt=0, lt=1, description="Λ above this is occupied")
-    obstacle_above: float = Field(
-        0.6, gt=0, lt=1, description="Λo above this is occupied too: walls are weak in the fused Λ"
-    )
+    occupied_above: float = Field(0.65, gt=0, lt=1, description="Λ above this is occupied "
+                                  "(and so is every cell holding a measured hit)")
     margin: float = Field(0.05, ge=0, description="meters of clearance added to the robot radius")
     unknown_clearance: float = Field(
         0.1, ge=0, description="meters the robot's centre keeps from unknown cells; occupied "
@@ -38,27 +37,42 @@ class CostmapConfig(BaseModel):
         return self
 
 
-def classify(prob: np.ndarray, config: CostmapConfig, prob_occ: np.ndarray | None = None):
+def classify(prob: np.ndarray, config: CostmapConfig):
     """(free, occupied) (h, w) bool masks; cells in neither are unknown."""
     occupied = prob > config.occupied_above
-    if prob_occ is not None:
-        occupied |= prob_occ > config.obstacle_above
     free = (prob < config.free_below) & ~occupied
     return free, occupied
 
 
 def passable(prob: np.ndarray, resolution: float, radius: float, config: CostmapConfig,
-             prob_occ: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+             hits: np.ndarray | None = None, origin=(0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
     """Where the robot's centre may go, and what a meter of path costs there.
 
+    Args:
+        prob: (h, w) occupancy probability; cell (0, 0)'s centre at ``origin`` (2,), meters.
+        hits: (k, 2) the measured laser endpoints (m) the map was built from. Clearance is then
+            measured to the points themselves; else to the occupied cells' edges, half a cell
+            nearer than their centres (what made a cell occupied may lie anywhere in it), which
+            can close a 0.75 m door to a 0.25 m robot.
+
     Returns:
-        ok: (h, w) bool, known-free cells more than ``radius + margin`` meters from any occupied
-            cell and more than ``unknown_clearance`` from any unknown one (off the map counts as
-            unknown).
+        ok: (h, w) bool, known-free cells more than ``radius + margin`` meters from any
+            obstacle and more than ``unknown_clearance`` from any unknown cell (off the map
+            counts as unknown).
         cost: (h, w) ``wall_cost`` of each cell, for ``paths.distance_field``.
     """
-    free, occupied = classify(prob, config, prob_occ)
-    to_occupied = _distance_to(occupied, resolution)
+    free, occupied = classify(prob, config)
+    if hits is None:
+        to_occupied = _distance_to(occupied, resolution) - resolution / 2
+    else:
+        to_occupied = np.zeros(prob.shape)
+        iy, ix = np.nonzero(free)
+        if len(hits):
+            centres = np.asarray(origin, float) + resolution * np.column_stack([ix, iy])
+            to_occupied[iy, ix] = cKDTree(hits).query(
+                centres, distance_upper_bound=max(config.preferred_clearance, radius + config.margin))[0]
+        else:
+            to_occupied[iy, ix] = np.inf
     ok = (free & (to_occupied > radius + config.margin)
           & (_distance_to(~free & ~occupied, resolution) > config.unknown_clearance))
     return ok, wall_cost(to_occupied, radius, config)

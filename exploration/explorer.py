@@ -135,8 +135,9 @@ class Explorer:
         origin, resolution = np.asarray(snapshot.origin, float), snapshot.resolution
         here = np.array([pose.x(), pose.y()])
         start = np.round((here - origin) / resolution).astype(int)
-        ok, cost = passable(snapshot.prob, resolution, c.robot_radius, self.method.costmap,
-                            snapshot.prob_occ)
+        prob = snapshot.prob if snapshot.traversable is None else snapshot.traversable
+        ok, cost = passable(prob, resolution, c.robot_radius, self.method.costmap, snapshot.hits,
+                            origin)
         # the robot stands on free ground even where its sensor has not looked (behind it)
         h, w = ok.shape
         yy, xx = np.mgrid[0:h, 0:w]

@@ -8,7 +8,9 @@ from dataclasses import dataclass
 from typing import Literal
 
 import gtsam
+import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
+from scipy.spatial import cKDTree
 
 from exploration.explorer import Plan
 from exploration.follower import FollowerConfig, PathFollower
@@ -26,6 +28,12 @@ class NavigationConfig(BaseModel):
                              "the goal along the path before it is abandoned and blacklisted")
     stuck_progress: float = Field(0.2, gt=0, description="progress along the path (m) that restarts "
                                   "the stuck count")
+    guard_clearance: float = Field(0.03, ge=0, description="the robot slows, then stops and turns "
+                                   "on the spot, rather than drive its disc closer than this (m) to "
+                                   "a point of the current scan: the map and the path may be off "
+                                   "by more than the planner's margin (pose error, cells)")
+    guard_horizon: float = Field(0.5, gt=0, description="seconds of the commanded arc checked "
+                                 "against the current scan")
 
 
 class ProgressMonitor:
@@ -61,17 +69,42 @@ class Command:
     event: Literal["reached", "stuck"] | None = None
 
 
+def guarded_speed(v: float, w: float, obstacles: np.ndarray, radius: float, clearance: float,
+                  horizon: float) -> float:
+    """The largest of ``v``, v/2, v/4 (m/s) whose arc with turn rate ``w`` over ``horizon``
+    seconds keeps a disc of ``radius`` farther than ``radius + clearance`` from every point of
+    ``obstacles`` (k, 2), in the robot frame (m), or no nearer than it already is; else 0 (a
+    disc turning on the spot cannot hit anything)."""
+    if v <= 0 or len(obstacles) == 0:
+        return v
+    tree = cKDTree(obstacles)
+    allowed = min(radius + clearance, float(tree.query([0.0, 0.0])[0]))
+    t = np.linspace(0.0, horizon, 9)[1:]
+    for speed in (v, v / 2, v / 4):
+        if np.isclose(w, 0.0):
+            arc = np.column_stack([speed * t, np.zeros_like(t)])
+        else:
+            arc = np.column_stack([np.sin(w * t), 1.0 - np.cos(w * t)]) * (speed / w)
+        if tree.query(arc)[0].min() >= allowed:
+            return speed
+    return 0.0
+
+
 class Navigator:
-    """Turns the explorer's plan into velocity commands, one per scan.
+    """Turns the explorer's plan into velocity commands, one per scan, and keeps them off what
+    the current scan shows (``guarded_speed``).
 
     Args:
-        config: spin, follower gains and the stuck test.
+        config: spin, follower gains, the stuck test and the guard.
         max_speed: the robot's top speed, m/s.
         max_turn_rate: the robot's top turn rate, rad/s.
+        radius: the robot's, m.
     """
 
-    def __init__(self, config: NavigationConfig, max_speed: float, max_turn_rate: float):
+    def __init__(self, config: NavigationConfig, max_speed: float, max_turn_rate: float,
+                 radius: float):
         self.config = config
+        self.radius = radius
         self.follower = PathFollower(max_speed, max_turn_rate, config.follower)
         self.monitor = ProgressMonitor(config.stuck_steps, config.stuck_progress)
         self._spin_until: float | None = None if config.initial_spin else -math.inf
@@ -83,9 +116,11 @@ class Navigator:
             self._spin_until = stamp + 2 * math.pi / self.follower.max_turn_rate - 1e-9
         return stamp < self._spin_until
 
-    def command(self, pose: gtsam.Pose2, plan: Plan, stamp: float) -> Command:
+    def command(self, pose: gtsam.Pose2, plan: Plan, stamp: float,
+                obstacles: np.ndarray = np.zeros((0, 2))) -> Command:
         """The command at ``pose`` for ``plan`` at scan time ``stamp`` (s): turn on the spot at
-        first, then follow the path; none without a goal (exploration is over)."""
+        first, then follow the path, no nearer to ``obstacles`` (k, 2), the scan's hits in the
+        robot frame (m), than the guard allows; none without a goal (exploration is over)."""
         if self.spinning(stamp):
             return Command(0.0, self.follower.max_turn_rate)
         if plan.goal is None:
@@ -95,7 +130,8 @@ class Navigator:
             return Command(0.0, 0.0, "reached")
         if self.monitor.stuck(self.follower.remaining(pose, plan.path)):
             return Command(0.0, 0.0, "stuck")
-        return Command(v, w)
+        c = self.config
+        return Command(guarded_speed(v, w, obstacles, self.radius, c.guard_clearance, c.guard_horizon), w)
 
     def new_goal(self) -> None:
         """The explorer chose a new goal: progress is measured afresh."""

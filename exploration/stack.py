@@ -9,6 +9,7 @@ regenerate it → plan when a goal is needed → follow the path.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Literal
@@ -22,7 +23,7 @@ from exploration.navigation import Command, NavigationConfig, Navigator
 from mapping.com import ContinuousOccupancyMap
 from mapping.config import COMConfig
 from mapping.logodds import LogOddsConfig, LogOddsGrid
-from mapping.occupancy import OccupancyMap
+from mapping.occupancy import MapSnapshot, OccupancyMap
 from slam.config import SlamConfig
 from slam.localiser import GivenPoses, Localisation, Localiser
 from slam.pose_slam import PoseSlam
@@ -41,9 +42,11 @@ class StackConfig(BaseModel):
     slam: SlamConfig = SlamConfig()
     com: COMConfig = COMConfig()
     grid: LogOddsConfig = Field(
-        LogOddsConfig(resolution=0.2, l_occ=2.5, l_free=-0.85, max_range=8.0),
-        description="the baseline's grid: 0.2 m cells as in the paper's Fig. 6; one free "
-        "observation makes a cell free, a hit outweighs two free passes")
+        LogOddsConfig(resolution=0.1, l_occ=2.5, l_free=-0.85, max_range=8.0),
+        description="the baseline's grid: 0.1 m cells, the COM's, so that both methods plan "
+        "with the same precision (on 0.2 m cells, as in the paper's Fig. 6, a 0.8 m door "
+        "leaves no cell a 0.25 m robot may cross); one free observation makes a cell free, a "
+        "hit outweighs two free passes")
     explorer: ExplorerConfig = ExplorerConfig()
     navigation: NavigationConfig = NavigationConfig()
     map_every: int = Field(0, ge=0, description="map every n-th scan instead of the keyframes "
@@ -96,8 +99,14 @@ class Stack:
         self.localiser: Localiser = localiser or (PoseSlam(c.slam) if c.poses == "slam"
                                                   else GivenPoses(c.slam.keyframes))
         self.map: OccupancyMap | None = None if mapping == "off" else occupancy or self._new_map()
+        # where the robot may drive: the raw evidence of the same scans (beams free their cells,
+        # hits occupy theirs). The COM's smoothing closes doors a robot fits through
+        self.costmap: LogOddsGrid | None = None
+        if planning:
+            self.costmap = self.map if isinstance(self.map, LogOddsGrid) else LogOddsGrid(c.grid)
         self.explorer = Explorer(c.explorer, seed=seed) if planning else None
-        self.navigator = Navigator(c.navigation, *speed_limits) if planning else None
+        self.navigator = (Navigator(c.navigation, *speed_limits, c.explorer.robot_radius)
+                          if planning else None)
         self.plan: Plan | None = None
         self.scans = self.regenerations = self.goals_abandoned = 0
         self._mapped: list[tuple[int, LaserScan]] = []   # (scan index, scan) in the map
@@ -121,7 +130,7 @@ class Stack:
             self.regenerate()
             out.regenerated = True
         if self.explorer is not None:
-            self._navigate(here, scan.timestamp, out)                        # plan and drive
+            self._navigate(here, scan, out)                                  # plan and drive
         return out
 
     def _maps(self, here: Localisation) -> bool:
@@ -134,22 +143,25 @@ class Stack:
         self._mapped.append((self.scans - 1, scan))
         if self.mapping == "online":
             self.map.update(pose, scan)
+            if self.costmap is not None and self.costmap is not self.map:
+                self.costmap.update(pose, scan)
 
     def _drifted(self) -> bool:
         """After a correction: did the online map drift past its threshold (the COM's
         Jensen–Shannon drift, eqs. 12-13; a grid always counts as drifted)?"""
         return self.mapping == "online" and self.map.needs_regeneration
 
-    def _navigate(self, here: Localisation, stamp: float, out: StackStep) -> None:
+    def _navigate(self, here: Localisation, scan: LaserScan, out: StackStep) -> None:
         """Re-plan when a goal is needed (none yet, every ``plan_every`` keyframes, the goal
         reached or abandoned, and before stopping, so that the stop is decided on the current
-        map), then command the robot along the plan's path."""
+        map), then command the robot along the plan's path, kept off the scan's hits."""
+        stamp, obstacles = scan.timestamp, scan.points()
         self._since_plan += here.keyframe is not None
         spinning = self.navigator.spinning(stamp)
         if (self.plan is None or (here.keyframe is not None and self._since_plan >= self.config.plan_every)
                 or (self.plan.goal is None and not spinning)):
             out.plan = self.replan(here.pose)
-        command = self.navigator.command(here.pose, self.plan, stamp)
+        command = self.navigator.command(here.pose, self.plan, stamp, obstacles)
         if command.event is not None:
             if command.event == "reached":
                 self.explorer.reached()
@@ -157,7 +169,7 @@ class Stack:
                 self.explorer.give_up()
                 self.goals_abandoned += 1
             out.plan = self.replan(here.pose)
-            command = self.navigator.command(here.pose, self.plan, stamp)
+            command = self.navigator.command(here.pose, self.plan, stamp, obstacles)
         out.command = command
         if self.plan.goal is None and not spinning:
             out.done = self.plan.done
@@ -165,14 +177,30 @@ class Stack:
     def replan(self, pose: gtsam.Pose2) -> Plan:
         """Ask the explorer where to go from ``pose`` on the current map."""
         self._since_plan = 0
-        self.plan = self.explorer.plan(self.map.snapshot(), pose)
+        self.plan = self.explorer.plan(self.snapshot(), pose)
         if self.plan.new_goal:
             self.navigator.new_goal()
         return self.plan
 
+    def snapshot(self) -> MapSnapshot:
+        """The map as the explorer reads it, with the costmap grid's free space and hits when
+        the map is not that grid (resampled onto the map's cells)."""
+        snapshot = self.map.snapshot()
+        if self.costmap is self.map:
+            return snapshot
+        frame = self.map.frame
+        h, w = frame.shape
+        yy, xx = np.mgrid[0:h, 0:w]
+        centres = frame.origin + frame.resolution * np.stack([xx, yy], axis=-1)
+        return dataclasses.replace(snapshot, hits=self.costmap.hits(),
+                                   traversable=self.costmap.frame.sample(self.costmap.prob(), centres))
+
     def regenerate(self) -> None:
         """Relearn the map from every mapped scan at its corrected pose (Section VII)."""
-        self.map.regenerate(self.mapped_scans())
+        scans = self.mapped_scans()
+        self.map.regenerate(scans)
+        if self.costmap is not None and self.costmap is not self.map:
+            self.costmap.regenerate(scans)
         self.regenerations += 1
 
     def final_map(self) -> OccupancyMap:

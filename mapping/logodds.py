@@ -10,6 +10,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from mapping.grid import GridFrame
 from mapping.occupancy import MapSnapshot
+from mapping.training import voxel_thin
 from slam.scan import LaserScan
 
 
@@ -39,6 +40,7 @@ class LogOddsGrid:
         """Forget every update: all cells unknown."""
         self.frame = GridFrame(self.config.resolution)
         self.logodds = np.zeros((0, 0))
+        self._hits: list[np.ndarray] = []     # each update's marked hits, one per half cell
 
     def update(self, pose: gtsam.Pose2, scan: LaserScan, beams: np.ndarray | None = None,
                mark_hits: np.ndarray | None = None) -> None:
@@ -78,6 +80,8 @@ class LogOddsGrid:
         if pad is not None:
             (b0, b1), (a0, a1) = pad
             self.logodds = np.pad(self.logodds, ((b0, a0), (b1, a1)))
+        marked = ends[is_hit]
+        self._hits.append(marked[voxel_thin(marked, step)])
         hit_flat = np.unique(self.frame.flat(hit_cells))
         free_flat = np.setdiff1d(np.unique(self.frame.flat(free_cells)), hit_flat, assume_unique=True)
         L = self.logodds.reshape(-1)
@@ -110,8 +114,13 @@ class LogOddsGrid:
         return 1.0 / (1.0 + np.exp(-self.logodds))
 
     def snapshot(self) -> MapSnapshot:
-        """The grid for the explorer (no obstacle map of its own)."""
-        return MapSnapshot(self.prob(), None, self.frame.origin, self.frame.resolution)
+        """The grid for the explorer (no obstacle map of its own), with the hits it marked."""
+        return MapSnapshot(self.prob(), None, self.frame.origin, self.frame.resolution, self.hits())
+
+    def hits(self) -> np.ndarray:
+        """(k, 2) the marked hits of every update since the last reset (one per half cell of
+        each update), meters."""
+        return np.vstack(self._hits) if self._hits else np.zeros((0, 2))
 
     def sample(self, grid: np.ndarray, xy: np.ndarray) -> np.ndarray:
         """Values of ``grid`` (h, w) at world points ``xy`` (..., 2); 0.5 off the grid."""

@@ -25,13 +25,22 @@ class MapSnapshot:
 
     ``prob`` (h, w) is the occupancy probability (Λ, or the grid's), 0.5 where unseen;
     ``prob_occ`` (h, w) is the obstacle map Λo of a COM (None for a grid, which has none);
-    ``origin`` (2,) the centre of cell (0, 0) and ``resolution`` the cell size, meters.
+    ``origin`` (2,) the centre of cell (0, 0) and ``resolution`` the cell size, meters;
+    ``hits`` (k, 2) the measured laser endpoints the map was built from, meters (None when
+    unknown: the planner then keeps its clearance from occupied cells).
+
+    ``traversable`` (h, w), when given, is where the planner reads free and unknown space
+    instead of ``prob``: the stack fills it, on the same cells, from its log-odds costmap grid
+    when the map is a COM, whose smoothing closes doors a robot fits through; ``hits`` are then
+    that grid's.
     """
 
     prob: np.ndarray
     prob_occ: np.ndarray | None
     origin: np.ndarray
     resolution: float
+    hits: np.ndarray | None = None
+    traversable: np.ndarray | None = None
 
 
 class OccupancyMap(Protocol):

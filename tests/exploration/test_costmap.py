@@ -46,12 +46,20 @@ def test_door_narrower_than_the_robot_blocks_the_path():
     assert np.isinf(dist[50, 70])
 
 
-def test_obstacle_map_marks_weak_walls():
-    prob = np.full((10, 10), 0.1)
-    prob_occ = np.full((10, 10), 0.5)
-    prob_occ[5, 5] = 0.8  # a wall the fused map missed
-    _, occupied = classify(prob, CostmapConfig(), prob_occ)
-    assert occupied[5, 5] and occupied.sum() == 1
+def test_clearance_is_measured_to_the_hits_not_their_cells():
+    """A 0.85 m door (x = 5.0 m, y in [4.0, 4.85] m) in a wall the map left free (Λ = 0.1, as a
+    COM's fused map can be near a wall seen once): only the hits, points along the wall's face
+    outside the door, block it. A 0.25 m robot with the 0.05 m margin needs more than 0.3 m
+    from each jamb: y in (4.3, 4.55), the cells centred at 4.4 and 4.5 m. Counted from the
+    hits' 0.1 m cells (jamb cells centred at 3.95 and 4.85 m, less half a cell), only the
+    4.4 m row would remain."""
+    res, radius = 0.1, 0.25
+    prob = np.full((100, 100), 0.1)
+    ys = np.r_[np.linspace(0.0, 4.0, 201), np.linspace(4.85, 9.9, 253)]
+    hits = np.column_stack([np.full_like(ys, 5.0), ys])
+    ok, _ = passable(prob, res, radius, CostmapConfig(unknown_clearance=0.0), hits)
+    np.testing.assert_allclose(res * np.flatnonzero(ok[:, 50]), [4.4, 4.5])  # cells at x = 5.0 m
+    assert ok[44, 5:-5].all() and ok[45, 5:-5].all()     # the robot crosses the wall there
 
 
 def test_bad_thresholds_are_rejected():

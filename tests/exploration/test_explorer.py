@@ -123,7 +123,7 @@ def passable_cells(snapshot, config):
     """(h, w) where the robot's centre may go, with the costmap of the config's method."""
     costmap = config.costmap if config.method == "gp" else config.grid_costmap
     return passable(snapshot.prob, snapshot.resolution, config.robot_radius, costmap,
-                    snapshot.prob_occ)[0]
+                    snapshot.hits, snapshot.origin)[0]
 
 
 def path_length(snapshot, start, goal, config):

@@ -21,6 +21,7 @@ def ahead_plan():
 
 
 HERE = gtsam.Pose2(0.0, 0.0, 0.0)
+RADIUS = 0.25
 
 
 # ---------------------------------------------------------------- ProgressMonitor
@@ -69,7 +70,7 @@ def test_reset_forgets_the_best():
 # ---------------------------------------------------------------- Navigator
 
 def navigator(**config):
-    return Navigator(NavigationConfig(**config), MAX_SPEED, MAX_TURN)
+    return Navigator(NavigationConfig(**config), MAX_SPEED, MAX_TURN, RADIUS)
 
 
 def test_initial_spin_lasts_one_turn_then_the_path_is_followed():
