@@ -26,8 +26,9 @@ $(VENV)/.installed-test: pyproject.toml $(VENV)/.installed
 	$(BIN)/python -m pip install --quiet -e ".[test]"
 	touch $@
 
+# --overwrite: each `make demo` replaces the previous demo's results in $(OUT) (a run owns its folder)
 demo: $(VENV)/.installed
-	$(BIN)/gpexplore explore --out $(OUT)
+	$(BIN)/gpexplore explore --out $(OUT) --overwrite
 
 # pytest exits 5 when it collected nothing: that is a failure, not a pass.
 test: $(VENV)/.installed-test

@@ -15,7 +15,7 @@ from rich.console import Console
 from rich.markup import escape
 
 from sim.cli_options import (Builtin, Config, Engine, Log, LogPoses, MaxSteps, Method, MethodOption,
-                             Methods, OdomTopic, Out, Poses, PosesOption, Resolution, ScanTopic, Seed, Seeds,
+                             Methods, OdomTopic, Out, Overwrite, Poses, PosesOption, Resolution, ScanTopic, Seed, Seeds,
                              Size, Solver, Start, World, WorldArgument, Worlds, episode_config, fraction,
                              numbers, positive)
 
@@ -55,6 +55,39 @@ def main(
 ANIMATE_EVERY = 10
 
 
+def _check_out(out: Path, command: str, overwrite: bool) -> None:
+    """Before any work: ``out`` can become this run's folder (``sim.results.check_run_folder``)."""
+    from sim.results import OutputError, check_run_folder
+
+    try:
+        check_run_folder(out, command, overwrite)
+    except OutputError as err:
+        raise typer.BadParameter(str(err), param_hint="'--out'") from None
+
+
+def _claim_out(out: Path, command: str, overwrite: bool) -> Path:
+    """Clear an earlier run's files from ``out`` and mark it as this run's, once every input has
+    been checked and just before the work starts."""
+    from sim.results import OutputError, claim_run_folder
+
+    try:
+        return claim_run_folder(out, command, overwrite)
+    except (OutputError, OSError) as err:
+        raise typer.BadParameter(str(err), param_hint="'--out'") from None
+
+
+def _check_file(path: Optional[Path], option: str) -> None:
+    """Before any work: a file can be written at ``path`` (given to ``option``)."""
+    from sim.results import OutputError, check_output_file
+
+    if path is None:
+        return
+    try:
+        check_output_file(path)
+    except OutputError as err:
+        raise typer.BadParameter(str(err), param_hint=f"'{option}'") from None
+
+
 @contextmanager
 def _world_errors(option: str = "--world"):
     """A world that does not load is a usage error of ``option``; a start that is not free, of --start."""
@@ -81,6 +114,7 @@ def world(
     """Load a world and print its frame, size and, from a start, the reachable free area."""
     from sim.world_io import load_world, start_area
 
+    _check_file(out, "--out")
     with _world_errors():
         w = load_world(world, size=size, resolution=resolution)
     (rx, ry), (width, height) = w.resolution, w.size
@@ -107,17 +141,20 @@ def world(
 
 @app.command()
 def demo(
-    out: Out = Path("results/demo"),
+    out: Out = Path("results/tour"),
     world: Annotated[Builtin, typer.Option(help="built-in world whose scripted tour to drive")] = Builtin("cave"),
     seed: Seed = 0,
+    overwrite: Overwrite = False,
 ):
-    """Drive the robot along the built-in world's scripted tour and write truth, odometry and a figure."""
+    """Drive the robot along the built-in world's scripted tour and write truth, odometry and a
+    figure (an earlier demo's folder is replaced; another run's needs --overwrite)."""
     from sim.figures import tour_figure
     from sim.tour import demo_tour
     from sim.worlds import BUILTIN_WORLDS
     from slam.atomic import write_json_atomic
     from slam.tum import write_tum
 
+    _claim_out(out, "demo", overwrite)
     builtin = BUILTIN_WORLDS[world.value]()
     log, m = demo_tour(builtin, seed, progress=True)
     write_tum(out / "ground_truth.tum", log.stamps, log.truth)
@@ -145,6 +182,7 @@ def map_(
     every: Annotated[int, typer.Option(min=1, help="map every n-th scan (SLAM still uses them all)")] = 1,
     scan_topic: ScanTopic = None,
     odom_topic: OdomTopic = None,
+    overwrite: Overwrite = False,
 ):
     """Build the continuous occupancy map of a log: com.npz, map.pgm/yaml, metrics.json, figure;
     with --poses slam also the replay's trajectory.tum and graph.g2o; config.toml, the configuration used."""
@@ -157,10 +195,12 @@ def map_(
     from slam.atomic import write_json_atomic
     from slam.replay import replay_metrics, write_trajectory_and_graph
 
+    _check_out(out, "map", overwrite)
     cfg = episode_config(config)
     if max_range is not None:
         cfg.stack.com.training.max_range = max_range
     records = _open_log(log, scan_topic=scan_topic, odom_topic=odom_topic)
+    _claim_out(out, "map", overwrite)
     run = map_log(records, poses.value, cfg.stack.com, cfg.stack.slam, every, holdout, progress=True)
     metrics = {"log": str(log), "poses": poses.value}
     if run.replay is not None:
@@ -198,17 +238,29 @@ def replay(
         help="skip malformed lines (counted) instead of failing")] = False,
     scan_topic: ScanTopic = None,
     odom_topic: OdomTopic = None,
+    overwrite: Overwrite = False,
 ):
     """Run Pose SLAM over a CARMEN log or ROS bag; write trajectory.tum, graph.g2o, metrics.json,
     config.toml (the configuration used) and, for a CARMEN log, corrected.clf."""
     from sim.config_file import CONFIG_NAME, write_config
     from sim.logs import replay_log
     from slam.carmen import CarmenLog
-    from slam.evaluation import RelationsError
+    from slam.evaluation import RelationsError, check_time_base, read_relations
     from slam.replay import write_replay
 
+    _check_out(out, "replay", overwrite)
     cfg = episode_config(config)
+    try:
+        reference = read_relations(relations) if relations is not None else None
+    except RelationsError as err:
+        raise typer.BadParameter(str(err), param_hint="'--relations'") from None
     records = _open_log(log, max_range, skip_malformed, scan_topic, odom_topic)
+    if reference is not None:
+        try:
+            check_time_base(reference, [r.scan.timestamp for r in records], str(log))
+        except RelationsError as err:
+            raise typer.BadParameter(str(err), param_hint="'--relations'") from None
+    _claim_out(out, "replay", overwrite)
     result = replay_log(records, cfg.stack.slam, progress=True)
     write_config(out / CONFIG_NAME, cfg)
     try:
@@ -275,6 +327,7 @@ def posegraph(
 
     from slam.g2o import G2oFormatError, chi2, optimize_g2o, read_g2o, write_g2o
 
+    _check_file(out, "--out")
     try:
         g = read_g2o(graph)
     except (G2oFormatError, OSError) as err:
@@ -302,6 +355,7 @@ def _rerun_file(path: Optional[Path]) -> Optional[Path]:
         return None
     if path.suffix != ".rrd":
         raise typer.BadParameter(f"{path}: a Rerun recording is a .rrd file")
+    _check_file(path, "--rerun")
     try:
         import rerun  # noqa: F401
     except ImportError:
@@ -326,6 +380,7 @@ def explore(
     max_steps: MaxSteps = None,
     config: Config = None,
     out: Out = Path("results/explore"),
+    overwrite: Overwrite = False,
     animate: Annotated[bool, typer.Option(
         help="write figures/animation.gif (and .mp4 with ffmpeg): a frame every animate_every steps "
         f"(configuration; {ANIMATE_EVERY} if unset)")] = False,
@@ -339,6 +394,7 @@ def explore(
     from sim.results import write_episode
     from sim.world_io import load_world, start_area, start_pose
 
+    _check_out(out, "explore", overwrite)
     cfg = _config_for(episode_config(config), method, poses, max_steps)
     if animate and not cfg.animate_every:
         cfg = cfg.model_copy(update={"animate_every": ANIMATE_EVERY})
@@ -348,6 +404,7 @@ def explore(
     area = start_area(w, (pose.x(), pose.y()), cfg.robot.radius)
     if area.enclosed:
         warn(area.warning())
+    _claim_out(out, "explore", overwrite)
     if rerun:
         from sim.rerun_log import RerunLog
 
@@ -483,6 +540,7 @@ def config_dump(
     campaign, replay or map with --config."""
     from sim.config_file import dumps_config, write_config
 
+    _check_file(out, "--out")
     cfg = episode_config(config)
     if out is None:
         typer.echo(dumps_config(cfg), nl=False)

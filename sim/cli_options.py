@@ -175,7 +175,10 @@ Config = Annotated[Optional[Path], typer.Option(
     help=escape("configuration file, TOML or YAML (`gpexplore config dump` writes one; settings "
                 "left out keep their defaults); replay and map read its [stack.slam] and "
                 "[stack.com] sections"))]
-Out = Annotated[Path, typer.Option(file_okay=False, help="output directory")]
+Out = Annotated[Path, typer.Option(file_okay=False, help="output directory (a run owns it: see --overwrite)")]
+Overwrite = Annotated[bool, typer.Option(
+    "--overwrite", help="replace an earlier run's results in --out (it is cleared first; a folder "
+    "gpexplore did not write is never cleared)")]
 
 Log = Annotated[Path, typer.Argument(exists=True, metavar="LOG", help=LOG_HELP)]
 ScanTopic = Annotated[Optional[str], typer.Option(

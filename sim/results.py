@@ -1,7 +1,11 @@
-"""Write what an exploration run produced: metrics, trajectories, pose graph, maps and figures."""
+"""Write what an exploration run produced: metrics, trajectories, pose graph, maps and figures;
+and the run folders every command writes into (checked before the work, owned by one run)."""
 
 from __future__ import annotations
 
+import json
+import os
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +21,94 @@ from slam.atomic import write_json_atomic, write_text_atomic
 from slam.pose_slam import PoseSlam
 from slam.poses import positions
 from slam.tum import write_tum
+
+
+#: The file that marks a folder as a gpexplore run's; it holds the command that wrote the folder.
+RUN_MARKER = ".gpexplore-run"
+
+
+class OutputError(ValueError):
+    """An output path a run cannot write to; the message names it and says what to do."""
+
+
+def check_output_file(path: str | Path) -> None:
+    """Raise OutputError when a file cannot be written at ``path`` (it is a folder, or a parent is
+    a file or not writable); an existing file is replaced. Checked before the work starts."""
+    path = Path(path)
+    if path.is_dir():
+        raise OutputError(f"{path} is a folder, not a file")
+    _check_creatable(path)
+
+
+def check_run_folder(out: str | Path, command: str, overwrite: bool = False) -> None:
+    """Raise OutputError when ``out`` cannot become the folder of a run of ``command`` (checked
+    before the work starts, nothing is changed): it is a file, it cannot be created or written,
+    it is a non-empty folder that gpexplore did not write, or it holds another run's results
+    and ``overwrite`` is not given. A folder holding an earlier ``demo`` is the demo's to
+    replace (the demo is meant to be run again)."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise OutputError(f"{out} is a file, not a folder")
+    _check_creatable(out)
+    if not out.is_dir() or not any(out.iterdir()):
+        return
+    owner = run_folder_owner(out)
+    if owner is None:
+        raise OutputError(f"{out} is not empty and is not a gpexplore run folder: give a new or empty "
+                          "folder (--overwrite only replaces a gpexplore run's results)")
+    if not overwrite and not (command == "demo" and owner == "demo"):
+        what = f"a `{owner}` run's results" if owner else "another run's results"
+        raise OutputError(f"{out} holds {what}: give --overwrite to replace them, or another folder")
+
+
+def claim_run_folder(out: str | Path, command: str, overwrite: bool = False) -> Path:
+    """Make ``out`` the folder of a run of ``command``: ``check_run_folder``, then clear the earlier
+    run's files and mark the folder (``RUN_MARKER``). Returns ``out``."""
+    out = Path(out)
+    check_run_folder(out, command, overwrite)
+    out.mkdir(parents=True, exist_ok=True)
+    for entry in out.iterdir():
+        if entry.is_dir() and not entry.is_symlink():
+            shutil.rmtree(entry)
+        else:
+            entry.unlink()
+    write_json_atomic(out / RUN_MARKER, {"command": command})
+    return out
+
+
+def run_folder_owner(folder: str | Path) -> str | None:
+    """The command whose run wrote ``folder``: the marker's command, "" for a run folder of an
+    older gpexplore (a metrics.json, or a config.toml gpexplore wrote, but no marker), None when
+    gpexplore did not write it."""
+    folder = Path(folder)
+    try:
+        return str(json.loads((folder / RUN_MARKER).read_text())["command"])
+    except (OSError, ValueError, KeyError, TypeError):
+        pass
+    try:
+        if isinstance(json.loads((folder / "metrics.json").read_text()), dict):
+            return ""
+    except (OSError, ValueError):
+        pass
+    try:
+        with open(folder / CONFIG_NAME, encoding="utf-8") as f:
+            if f.readline().startswith("# gpexplore configuration"):
+                return ""
+    except (OSError, ValueError):
+        pass
+    return None
+
+
+def _check_creatable(path: Path) -> None:
+    """OutputError unless ``path`` exists writable or can be created: its nearest existing parent
+    is a writable folder."""
+    probe = path if path.exists() else path.parent
+    while not probe.exists() and probe != probe.parent:
+        probe = probe.parent
+    if not probe.is_dir():
+        raise OutputError(f"cannot create {path}: {probe} is a file")
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise OutputError(f"cannot write {path}: {probe} is not writable")
 
 
 #: Columns of curve.csv, a run's samples over its steps.

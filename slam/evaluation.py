@@ -38,10 +38,20 @@ class Relations:
 
 
 def read_relations(path: str | Path) -> Relations:
-    """Read a ``.relations`` file (8 numbers per line, ``#`` comments)."""
+    """Read a ``.relations`` file (8 numbers per line, ``#`` comments).
+
+    Raises:
+        RelationsError: the file cannot be read, or a line is malformed (the file and line named).
+    """
     path = Path(path)
+    try:
+        text = path.read_bytes().decode()
+    except OSError as err:
+        raise RelationsError(f"{path}: cannot read: {err.strerror or err}") from None
+    except UnicodeDecodeError as err:
+        raise RelationsError(f"{path}: not a text file (byte {err.start} is not UTF-8)") from None
     rows = []
-    for number, line in enumerate(path.read_text().splitlines(), start=1):
+    for number, line in enumerate(text.splitlines(), start=1):
         fields = line.split()
         if not fields or fields[0].startswith("#"):
             continue
@@ -134,6 +144,25 @@ def pose_at(times: np.ndarray, stamps: np.ndarray, poses: np.ndarray,
     return result, gap
 
 
+def check_time_base(relations: Relations, stamps, source: str = "log") -> None:
+    """Raise RelationsError when the relation times match none of ``stamps`` (s): a different
+    time base, or relations of another log. A trajectory's poses are at some of a log's scans,
+    so a log whose scans pass this is worth replaying before ``relation_error``."""
+    stamps = np.asarray(stamps, dtype=float)
+    if stamps.size < 2:
+        raise RelationsError(f"{source}: a trajectory needs at least two poses, got {stamps.size}")
+    dummy = np.zeros((stamps.size, 3))
+    _, g1 = pose_at(relations.t1, stamps, dummy, None)
+    _, g2 = pose_at(relations.t2, stamps, dummy, None)
+    _check_gap(np.maximum(g1, g2), source)
+
+
+def _check_gap(gap: np.ndarray, source: str) -> None:
+    if np.median(gap) > TIME_BASE_GAP or gap.min() > 1.0:
+        raise RelationsError(f"relation times match no pose of the {source} (median gap {np.median(gap):.3g} s):"
+                             " different time bases, or relations of another log")
+
+
 def relation_error(relations: Relations, stamps, poses: list[gtsam.Pose2],
                    odometry: list[gtsam.Pose2] | None = None, source: str = "trajectory") -> RelationError:
     """Kümmerle et al.'s relation error of a trajectory (``stamps`` (n,), ``poses``), with raw
@@ -146,9 +175,7 @@ def relation_error(relations: Relations, stamps, poses: list[gtsam.Pose2],
     p1, g1 = pose_at(relations.t1, stamps, xyt, odo)
     p2, g2 = pose_at(relations.t2, stamps, xyt, odo)
     gap = np.maximum(g1, g2)
-    if np.median(gap) > TIME_BASE_GAP or gap.min() > 1.0:
-        raise RelationsError(f"relation times match no pose of the {source} (median gap {np.median(gap):.3g} s):"
-                             " different time bases, or relations of another log")
+    _check_gap(gap, source)
     rel = _between(p1, p2)
     d = rel - relations.delta
     return RelationError(np.hypot(d[:, 0], d[:, 1]), np.degrees(np.abs(_wrap(d[:, 2]))),

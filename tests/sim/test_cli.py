@@ -305,3 +305,72 @@ def test_a_start_outside_a_world_is_named_without_numpy_reprs():
     assert result.exit_code == 2
     assert "'--start': start (5.00, 5.00) is not free for a robot of radius 0.25 m" in one_line(result.output)
     assert "np.float64" not in result.output
+
+
+def no_work(*args, **kwargs):
+    raise AssertionError("the work started before the output was checked")
+
+
+@pytest.mark.parametrize("target, message", [
+    ("afile", "is a file"),
+    ("afile/sub", "cannot create"),
+    ("foreign", "is not empty and is not a gpexplore run folder"),
+    ("old_run", "holds another run's results: give --overwrite to replace them"),
+])
+def test_explore_checks_its_output_folder_before_any_work(tmp_path, monkeypatch, target, message):
+    import sim.episode
+
+    monkeypatch.setattr(sim.episode, "run_episode", no_work)
+    (tmp_path / "afile").write_text("x")
+    (tmp_path / "foreign").mkdir()
+    (tmp_path / "foreign" / "thesis.tex").write_text("precious")
+    (tmp_path / "old_run").mkdir()
+    (tmp_path / "old_run" / "metrics.json").write_text("{}")
+    result = runner.invoke(app, ["explore", "--poses", "truth", "--out", str(tmp_path / target)])
+    assert result.exit_code == 2 and message in one_line(result.output), result.output
+    result = runner.invoke(app, ["explore", "--poses", "truth", "--out", str(tmp_path / "foreign"), "--overwrite"])
+    assert result.exit_code == 2 and (tmp_path / "foreign" / "thesis.tex").read_text() == "precious"
+
+
+def test_a_run_owns_its_folder_and_overwrite_clears_the_older_run(tmp_path):
+    from PIL import Image
+
+    pixels = np.full((60, 100), 255, dtype=np.uint8)
+    pixels[:2], pixels[-2:], pixels[:, :2], pixels[:, -2:] = 0, 0, 0, 0
+    Image.fromarray(pixels).save(tmp_path / "room.png")
+    out = tmp_path / "run"
+    args = ["explore", "--world", str(tmp_path / "room.png"), "--size", "5", "3", "--poses", "truth",
+            "--max-steps", "20", "--out", str(out)]
+    assert runner.invoke(app, args + ["--method", "gp"]).exit_code == 0
+    assert (out / "com.npz").exists()
+    result = runner.invoke(app, args + ["--method", "grid"])
+    assert result.exit_code == 2 and "`explore` run's results: give --overwrite" in one_line(result.output)
+    result = runner.invoke(app, args + ["--method", "grid", "--overwrite"])
+    assert result.exit_code == 0, result.output
+    assert not (out / "com.npz").exists() and not (out / "figures" / "com_panels.png").exists()
+    assert json.loads((out / "metrics.json").read_text())["method"] == "grid"
+
+
+def test_demo_runs_again_into_its_own_folder_but_not_into_another_runs(tmp_path):
+    out = tmp_path / "demo"
+    for _ in range(2):
+        result = runner.invoke(app, ["demo", "--world", "office", "--out", str(out)])
+        assert result.exit_code == 0, result.output
+    (tmp_path / "explored").mkdir()
+    (tmp_path / "explored" / ".gpexplore-run").write_text('{"command": "explore"}')
+    result = runner.invoke(app, ["demo", "--world", "office", "--out", str(tmp_path / "explored")])
+    assert result.exit_code == 2 and "holds a `explore` run's results" in one_line(result.output)
+
+
+def test_file_outputs_are_checked_before_any_work(tmp_path, monkeypatch):
+    import slam.g2o
+
+    monkeypatch.setattr(slam.g2o, "optimize_g2o", no_work)
+    graph = tmp_path / "g.g2o"
+    graph.write_text("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n")
+    result = runner.invoke(app, ["posegraph", str(graph), "--out", str(tmp_path / "g.g2o" / "x.g2o")])
+    assert result.exit_code == 2 and "'--out': cannot create" in one_line(result.output)
+    result = runner.invoke(app, ["world", "cave", "--out", str(tmp_path / "g.g2o" / "w.png")])
+    assert result.exit_code == 2 and "'--out': cannot create" in one_line(result.output)
+    result = runner.invoke(app, ["config", "dump", "--out", str(tmp_path / "g.g2o" / "c.toml")])
+    assert result.exit_code == 2 and "'--out': cannot create" in one_line(result.output)

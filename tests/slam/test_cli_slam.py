@@ -77,3 +77,48 @@ def test_replay_config_file_is_validated(tmp_path, shared_data):
     result = runner.invoke(app, ["replay", str(log), "--config", str(bad)])
     assert result.exit_code == 2
     assert "stack.slam.loop_closure.serch_radius: unknown setting" in " ".join(result.output.split())
+
+
+def tiny_log(path, scans=5):
+    """A CARMEN log of ``scans`` FLASER lines, 3 beams, stamps 100.0, 100.1, ..."""
+    lines = [f"FLASER 3 1.0 1.0 1.0 {0.1 * k:.1f} 0 0 {0.1 * k:.1f} 0 0 {100 + 0.1 * k:.1f} host {100 + 0.1 * k:.1f}"
+             for k in range(scans)]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def no_work(*args, **kwargs):
+    raise AssertionError("the replay started before its inputs were checked")
+
+
+def test_replay_checks_relations_and_output_before_the_replay(tmp_path, monkeypatch):
+    import sim.logs
+
+    monkeypatch.setattr(sim.logs, "replay_log", no_work)
+    log = tiny_log(tmp_path / "tiny.clf")
+    out = tmp_path / "o"
+    bad = tmp_path / "bad.relations"
+    bad.write_text("100.0 100.2 0.2 0 0 0 0 0\n100.0 100.2 0.2 0 0 0 0\n")
+    binary = tmp_path / "binary.relations"
+    binary.write_bytes(b"\xff\xfe\x00\x01")
+    foreign = tmp_path / "foreign.relations"
+    foreign.write_text("12.0 13.0 0.1 0 0 0 0 0\n")
+    for relations, message in [(bad, "bad.relations:2: relation line has 7 fields, expected 8"),
+                               (binary, "binary.relations: not a text file"),
+                               (foreign, "different time bases")]:
+        result = runner.invoke(app, ["replay", str(log), "--out", str(out), "--relations", str(relations)])
+        assert result.exit_code == 2 and "'--relations'" in one_line(result.output), result.output
+        assert squeezed(message) in squeezed(result.output) and not out.exists()
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "notes.txt").write_text("x")
+    result = runner.invoke(app, ["replay", str(log), "--out", str(tmp_path / "mine")])
+    assert result.exit_code == 2 and "not a gpexplore run folder" in one_line(result.output)
+
+
+def one_line(output):
+    return " ".join(output.replace("│", " ").split())
+
+
+def squeezed(text):
+    """``text`` without whitespace and rich's box: a wrapped path compares equal."""
+    return "".join(text.replace("│", "").split())
