@@ -28,10 +28,10 @@ class NavigationConfig(BaseModel):
                              "the goal along the path before it is abandoned and blacklisted")
     stuck_progress: float = Field(0.2, gt=0, description="progress along the path (m) that restarts "
                                   "the stuck count")
-    guard_clearance: float = Field(0.03, ge=0, description="the robot slows, then stops and turns "
+    guard_clearance: float = Field(0.0, ge=0, description="the robot slows, then stops and turns "
                                    "on the spot, rather than drive its disc closer than this (m) to "
-                                   "a point of the current scan: the map and the path may be off "
-                                   "by more than the planner's margin (pose error, cells)")
+                                   "a point of the current scan: the path may be off by more than "
+                                   "the planner's margin (pose error, cut corners)")
     guard_horizon: float = Field(0.5, gt=0, description="seconds of the commanded arc checked "
                                  "against the current scan")
 
@@ -69,30 +69,33 @@ class Command:
     event: Literal["reached", "stuck"] | None = None
 
 
-def guarded_speed(v: float, w: float, obstacles: np.ndarray, radius: float, clearance: float,
-                  horizon: float) -> float:
-    """The largest of ``v``, v/2, v/4 (m/s) whose arc with turn rate ``w`` over ``horizon``
-    seconds keeps a disc of ``radius`` farther than ``radius + clearance`` from every point of
-    ``obstacles`` (k, 2), in the robot frame (m), or no nearer than it already is; else 0 (a
-    disc turning on the spot cannot hit anything)."""
+def guarded(v: float, w: float, obstacles: np.ndarray, radius: float, clearance: float,
+            horizon: float, max_turn_rate: float) -> tuple[float, float]:
+    """The command nearest to (``v``, ``w``) (m/s, rad/s) whose arc over ``horizon`` seconds
+    keeps a disc of ``radius`` farther than ``radius + clearance`` from every point of
+    ``obstacles`` (k, 2), in the robot frame (m), or no nearer than it already is: the speed
+    v, v/2 or v/4 first, then the turn rate moved towards either side in steps of a quarter
+    of ``max_turn_rate``; else (0, w): a disc turning on the spot cannot hit anything."""
     if v <= 0 or len(obstacles) == 0:
-        return v
+        return v, w
     tree = cKDTree(obstacles)
     allowed = min(radius + clearance, float(tree.query([0.0, 0.0])[0]))
     t = np.linspace(0.0, horizon, 9)[1:]
-    for speed in (v, v / 2, v / 4):
-        if np.isclose(w, 0.0):
-            arc = np.column_stack([speed * t, np.zeros_like(t)])
-        else:
-            arc = np.column_stack([np.sin(w * t), 1.0 - np.cos(w * t)]) * (speed / w)
-        if tree.query(arc)[0].min() >= allowed:
-            return speed
-    return 0.0
+    turns = w + max_turn_rate * np.array([0.0, 0.25, -0.25, 0.5, -0.5, 1.0, -1.0])
+    for turn in turns[np.abs(turns) <= max_turn_rate + 1e-9]:
+        for speed in (v, v / 2, v / 4):
+            if np.isclose(turn, 0.0):
+                arc = np.column_stack([speed * t, np.zeros_like(t)])
+            else:
+                arc = np.column_stack([np.sin(turn * t), 1.0 - np.cos(turn * t)]) * (speed / turn)
+            if tree.query(arc)[0].min() >= allowed:
+                return speed, float(turn)
+    return 0.0, w
 
 
 class Navigator:
     """Turns the explorer's plan into velocity commands, one per scan, and keeps them off what
-    the current scan shows (``guarded_speed``).
+    the current scan shows (``guarded``).
 
     Args:
         config: spin, follower gains, the stuck test and the guard.
@@ -131,7 +134,8 @@ class Navigator:
         if self.monitor.stuck(self.follower.remaining(pose, plan.path)):
             return Command(0.0, 0.0, "stuck")
         c = self.config
-        return Command(guarded_speed(v, w, obstacles, self.radius, c.guard_clearance, c.guard_horizon), w)
+        return Command(*guarded(v, w, obstacles, self.radius, c.guard_clearance, c.guard_horizon,
+                                self.follower.max_turn_rate))
 
     def new_goal(self) -> None:
         """The explorer chose a new goal: progress is measured afresh."""

@@ -57,7 +57,7 @@ def test_clearance_is_measured_to_the_hits_not_their_cells():
     prob = np.full((100, 100), 0.1)
     ys = np.r_[np.linspace(0.0, 4.0, 201), np.linspace(4.85, 9.9, 253)]
     hits = np.column_stack([np.full_like(ys, 5.0), ys])
-    ok, _ = passable(prob, res, radius, CostmapConfig(unknown_clearance=0.0), hits)
+    ok, _ = passable(prob, res, radius, CostmapConfig(unknown_clearance=0.0, margin=0.05), hits)
     np.testing.assert_allclose(res * np.flatnonzero(ok[:, 50]), [4.4, 4.5])  # cells at x = 5.0 m
     assert ok[44, 5:-5].all() and ok[45, 5:-5].all()     # the robot crosses the wall there
 

@@ -8,7 +8,7 @@ import pytest
 
 from exploration.explorer import Plan
 from exploration.follower import FollowerConfig
-from exploration.navigation import Command, NavigationConfig, Navigator, ProgressMonitor
+from exploration.navigation import Command, NavigationConfig, Navigator, ProgressMonitor, guarded
 
 MAX_SPEED, MAX_TURN = 0.5, math.pi / 2      # the spin takes 2π / (π/2) = 4 s
 T0 = 100.0                                  # the first scan's stamp: the spin's clock starts there
@@ -133,3 +133,35 @@ def test_stuck_count_waits_for_the_spin():
     nav = navigator(stuck_steps=3, stuck_progress=0.2)
     events = [nav.command(HERE, ahead_plan(), T0 + DT * k).event for k in range(13)]
     assert events == [None] * 12 + ["stuck"]
+
+
+# ---------------------------------------------------------------- the guard
+
+def wall_at(x: float) -> np.ndarray:
+    """Scan points of a wall across the robot's way, x meters ahead, 1 cm apart."""
+    ys = np.linspace(-2.0, 2.0, 401)
+    return np.column_stack([np.full_like(ys, x), ys])
+
+
+def test_guard_slows_to_the_fastest_speed_that_stays_clear():
+    """Wall 0.45 m ahead, radius 0.25, 0.5 s horizon: at 0.5 m/s the disc would end 0.20 m from
+    it; at 0.25 m/s 0.325 m: the guard keeps the heading and halves the speed."""
+    assert guarded(0.5, 0.0, wall_at(0.45), 0.25, 0.0, 0.5, MAX_TURN) == (0.25, 0.0)
+
+
+def test_guard_turns_on_the_spot_when_every_arc_hits():
+    """Wall 0.3 m ahead: straight at 0.125 m/s (the slowest) ends 0.2375 m from it; the
+    tightest arc, 0.125 m/s at π/2 rad/s, reaches x = 0.125 / (π/2) = 0.08 m, 0.22 m from it.
+    Every arc comes within the radius: stop, keep turning."""
+    assert guarded(0.5, 0.3, wall_at(0.3), 0.25, 0.0, 0.5, MAX_TURN) == (0.0, 0.3)
+
+
+def test_guard_lets_the_robot_move_away_from_what_it_already_touches():
+    """A point 0.2 m behind (range noise put it inside the radius): driving away is allowed."""
+    assert guarded(0.5, 0.0, np.array([[-0.2, 0.0]]), 0.25, 0.0, 0.5, MAX_TURN) == (0.5, 0.0)
+
+
+def test_navigator_commands_are_guarded():
+    nav = navigator(initial_spin=False)
+    command = nav.command(HERE, ahead_plan(), T0, wall_at(0.45))
+    assert (command.v, command.w) == (0.25, 0.0)
