@@ -15,9 +15,9 @@ from rich.console import Console
 from rich.markup import escape
 
 from sim.cli_options import (Builtin, Config, Engine, Log, LogPoses, MaxSteps, Method, MethodOption,
-                             Methods, OdomTopic, Out, Overwrite, Poses, PosesOption, Resolution, ScanTopic, Seed, Seeds,
-                             Size, Solver, Start, World, WorldArgument, Worlds, episode_config, fraction,
-                             numbers, positive)
+                             Methods, OdomTopic, Out, Overwrite, Poses, PosesOption, Resolution, ScanTopic, Seed,
+                             Seeds, Size, SkipMalformed, Solver, Start, World, WorldArgument, Worlds,
+                             episode_config, fraction, numbers, positive)
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Autonomous exploration on continuous Gaussian-process frontier maps.")
@@ -115,17 +115,17 @@ def world(
     from sim.world_io import load_world, start_area
 
     _check_file(out, "--out")
-    with _world_errors():
+    with _world_errors("WORLD"):
         w = load_world(world, size=size, resolution=resolution)
     (rx, ry), (width, height) = w.resolution, w.size
     console.print(f"{w.name}: {w.shape[1]} x {w.shape[0]} cells of {rx:.4g} x {ry:.4g} m, "
-                  f"{width:.3f} x {height:.3f} m, origin {w.origin}")
+                  f"{width:.3f} x {height:.3f} m, origin {w.origin}", markup=False)
     console.print(f"occupied: {100 * w.occupied.mean():.1f} % of cells")
     if start:
         with _world_errors():
             area = start_area(w, start, radius)
         console.print(f"reachable free space from ({start[0]:g}, {start[1]:g}): {area.reachable_m2:.1f} m² "
-                      f"({100 * area.share:.1f} % of the {area.free_m2:.1f} m² a robot of radius {radius:g} m fits in)")
+                      f"({100 * area.share:.1f} % of the {area.free_m2:.1f} m² a robot of radius {radius:g} m fits in)", markup=False)
         if area.enclosed:
             warn(area.warning())
     if out:
@@ -136,7 +136,7 @@ def world(
         fig, ax = plt.subplots(figsize=(8, 8 * height / width + 0.5))
         plot_world(ax, w)
         save_figure(fig, out, dpi=120)
-        console.print(f"figure: {out}")
+        console.print(f"figure: {out}", markup=False)
 
 
 @app.command()
@@ -164,7 +164,7 @@ def demo(
     console.print(f"{m['steps']} scans, {m['travel_distance_m']:.1f} m in {m['sim_time_s']:.0f} s of robot "
                   f"time ({m['wall_time_s']:.1f} s wall), {m['collisions']} collisions, odometry drift "
                   f"{m['final_odometry_drift_m']:.2f} m at the end")
-    console.print(f"results in {out}/: metrics.json, ground_truth.tum, odometry.tum, figures/tour.png")
+    console.print(f"results in {out}/: metrics.json, ground_truth.tum, odometry.tum, figures/tour.png", markup=False)
 
 
 @app.command("map")
@@ -180,6 +180,7 @@ def map_(
     holdout: Annotated[float, typer.Option(
         callback=fraction, help="fraction in [0, 1) of each scan's labelled points held out for the AUC")] = 0.0,
     every: Annotated[int, typer.Option(min=1, help="map every n-th scan (SLAM still uses them all)")] = 1,
+    skip_malformed: SkipMalformed = False,
     scan_topic: ScanTopic = None,
     odom_topic: OdomTopic = None,
     overwrite: Overwrite = False,
@@ -199,10 +200,15 @@ def map_(
     cfg = episode_config(config)
     if max_range is not None:
         cfg.stack.com.training.max_range = max_range
-    records = _open_log(log, scan_topic=scan_topic, odom_topic=odom_topic)
+    records = _open_log(log, skip_malformed=skip_malformed, scan_topic=scan_topic, odom_topic=odom_topic)
+    warnings = []
+    if poses == LogPoses.log and not records.has_corrected_poses():
+        warnings.append(f"{log.name} has no corrected poses: its own poses are its raw odometry, whose drift "
+                        "smears the map; --poses slam maps it at Pose SLAM's poses")
+        warn(warnings[-1])
     _claim_out(out, "map", overwrite)
     run = map_log(records, poses.value, cfg.stack.com, cfg.stack.slam, every, holdout, progress=True)
-    metrics = {"log": str(log), "poses": poses.value}
+    metrics = {"log": str(log), "poses": poses.value, "warnings": warnings}
     if run.replay is not None:
         write_trajectory_and_graph(out, run.replay)
         metrics["slam"] = replay_metrics(records, run.replay)
@@ -222,7 +228,7 @@ def map_(
                   f"({m['holdout']['protocol']}); entropy {m['entropy_nats_0.2m']:.0f} nats")
     slam_products = ", trajectory.tum, graph.g2o" if run.replay is not None else ""
     console.print(f"results in {out}/: com.npz, map.pgm, map.yaml, metrics.json, config.toml, "
-                  f"figures/com.png{slam_products}")
+                  f"figures/com.png{slam_products}", markup=False)
 
 
 @app.command()
@@ -234,8 +240,7 @@ def replay(
     config: Config = None,
     max_range: Annotated[float, typer.Option(
         callback=positive, help="readings at or beyond this (m) are no return")] = 80.0,
-    skip_malformed: Annotated[bool, typer.Option(
-        help="skip malformed lines (counted) instead of failing")] = False,
+    skip_malformed: SkipMalformed = False,
     scan_topic: ScanTopic = None,
     odom_topic: OdomTopic = None,
     overwrite: Overwrite = False,
@@ -274,7 +279,7 @@ def replay(
             console.print(f"relation error {name} (n={e['n']}): {e['trans_mean_m']:.4f} ± {e['trans_std_m']:.4f} m, "
                           f"{e['rot_mean_deg']:.3f} ± {e['rot_std_deg']:.3f} deg")
     corrected = "corrected.clf, " if isinstance(records, CarmenLog) else ""
-    console.print(f"results in {out}/: trajectory.tum, graph.g2o, {corrected}metrics.json, config.toml, trajectory.png")
+    console.print(f"results in {out}/: trajectory.tum, graph.g2o, {corrected}metrics.json, config.toml, trajectory.png", markup=False)
 
 
 def _open_log(path: Path, max_range: float = 80.0, skip_malformed: bool = False,
@@ -287,7 +292,9 @@ def _open_log(path: Path, max_range: float = 80.0, skip_malformed: bool = False,
     try:
         records = open_log(path, max_range, skip_malformed, scan_topic, odom_topic)
     except (LogFormatError, BagError, FileNotFoundError) as err:
-        console.print(f"[red]error:[/red] {escape(str(err))}")
+        hint = (" (--skip-malformed skips such lines, counted)"
+                if isinstance(err, LogFormatError) and err.line is not None else "")
+        console.print(f"[red]error:[/red] {escape(str(err))}{hint}")
         raise typer.Exit(2) from None
     except ValueError as err:                      # topics given for a CARMEN log
         raise typer.BadParameter(str(err), param_hint="'--scan-topic'" if scan_topic else "'--odom-topic'")
@@ -340,13 +347,13 @@ def posegraph(
     wall = time.perf_counter() - tic
     after = chi2(g, poses, rotated=rotated)
     name = "chi2 (g2o EdgeSE2)" if rotated else "chi2 (translation residual in frame i)"
-    console.print(f"{graph.name}: {len(g.poses)} poses, {len(g.edges)} edges")
+    console.print(f"{graph.name}: {len(g.poses)} poses, {len(g.edges)} edges", markup=False)
     console.print(f"{name}: {before:.6g} -> {after:.9g}")
     console.print(f"2 x GTSAM error at the result: {2 * g.factor_graph().error(g.values_of(poses)):.9g}")
     console.print(f"{iterations} iterations, {wall:.2f} s")
     if out:
         write_g2o(out, poses, g.edges)
-        console.print(f"optimised graph: {out}")
+        console.print(f"optimised graph: {out}", markup=False)
 
 
 def _rerun_file(path: Optional[Path]) -> Optional[Path]:
@@ -422,9 +429,9 @@ def explore(
                   f"{m['collisions']} collisions")
     console.print(f"results in {out}/: metrics.json, config.toml, trajectory.tum, ground_truth.tum, "
                   f"graph.g2o, map.pgm, map.yaml{', com.npz' if cfg.stack.explorer.method == 'gp' else ''}, "
-                  "figures/")
+                  "figures/", markup=False)
     if rerun:
-        console.print(f"Rerun recording: {rerun} (open it with: rerun {rerun})")
+        console.print(f"Rerun recording: {rerun} (open it with: rerun {rerun})", markup=False)
 
 
 def _run_and_report(worlds, configs, seeds: int, out: Path, engine: str, workers, scheduler) -> None:
@@ -451,7 +458,7 @@ def _run_and_report(worlds, configs, seeds: int, out: Path, engine: str, workers
         raise typer.BadParameter(str(err), param_hint="'--engine'") from None
     except OSError as err:
         raise typer.BadParameter(f"no Dask scheduler at {scheduler}: {err}", param_hint="'--scheduler'") from None
-    console.print(f"{len(runs)} runs on the {pool.name} engine ({pool.workers} workers), results in {out}/")
+    console.print(f"{len(runs)} runs on the {pool.name} engine ({pool.workers} workers), results in {out}/", markup=False)
     with pool, tqdm(total=len(runs), initial=sum(map(finished, runs)), desc="runs", unit="run") as bar:
 
         def report(run, metrics, error):
@@ -465,7 +472,7 @@ def _run_and_report(worlds, configs, seeds: int, out: Path, engine: str, workers
     console.print(f"{summary['done_before']} runs were done before, {summary['finished']} finished now, "
                   f"{summary['failed']} failed")
     console.print(f"results in {out}/: <world>/<method>/seed_<k>/, table.md, table.csv, "
-                  f"figures/ ({len(figures)} figures)")
+                  f"figures/ ({len(figures)} figures)", markup=False)
     if summary["failed"]:
         console.print("[red]failed runs[/red] (error.json in their folders; run again to retry them)")
         raise typer.Exit(1)
@@ -546,7 +553,7 @@ def config_dump(
         typer.echo(dumps_config(cfg), nl=False)
     else:
         write_config(out, cfg)
-        console.print(f"configuration: {out}")
+        console.print(f"configuration: {out}", markup=False)
 
 
 if __name__ == "__main__":

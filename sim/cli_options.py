@@ -181,6 +181,8 @@ Overwrite = Annotated[bool, typer.Option(
     "gpexplore did not write is never cleared)")]
 
 Log = Annotated[Path, typer.Argument(exists=True, metavar="LOG", help=LOG_HELP)]
+SkipMalformed = Annotated[bool, typer.Option(
+    help="CARMEN logs: skip malformed lines (counted, the first one named) instead of failing")]
 ScanTopic = Annotated[Optional[str], typer.Option(
     help="ROS bags: the sensor_msgs/LaserScan topic (default: the only one, or /scan)")]
 OdomTopic = Annotated[Optional[str], typer.Option(

@@ -41,7 +41,13 @@ DEFAULT_MAX_RANGE = 80.0
 
 
 class LogFormatError(ValueError):
-    """A malformed line in a log; the message names the file and line."""
+    """A malformed line in a log, or a log that cannot be read; the message names the file and
+    line. ``line`` is the malformed line's number (None for the whole file): such a line can be
+    skipped (``skip_malformed``)."""
+
+    def __init__(self, message: str, line: int | None = None):
+        super().__init__(message)
+        self.line = line
 
 
 @dataclass(frozen=True)
@@ -135,7 +141,7 @@ class CarmenLog(LaserLog):
                     except (ValueError, IndexError) as err:
                         message = f"{self.path}:{number}: {err}"
                         if not skip_malformed:
-                            raise LogFormatError(message) from None
+                            raise LogFormatError(message, number) from None
                         self.skipped.append((number, str(err)))
         except (OSError, EOFError, gzip.BadGzipFile) as err:
             raise LogFormatError(f"{self.path}: cannot read log: {err}") from None

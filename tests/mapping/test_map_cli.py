@@ -15,14 +15,16 @@ from sim.cli import app
 from simworlds import corridor_world
 
 
-def write_flaser_log(path, poses, scans, period=0.5):
+def write_flaser_log(path, poses, scans, period=0.5, odometry=None):
     """A raw CARMEN log: a FLASER line per scan with ``poses`` in both pose slots (so they are
-    also its odometry), one every ``period`` s; beams with no return read 81.91 as in real logs."""
+    also its odometry; a corrected log with ``odometry`` in the second), one every ``period`` s;
+    beams with no return read 81.91 as in real logs."""
     lines = ["# message formats defined: FLASER"]
-    for k, (p, s) in enumerate(zip(poses, scans)):
+    for k, (p, s, o) in enumerate(zip(poses, scans, odometry or poses)):
         r = " ".join(f"{v:.3f}" for v in np.where(s.ranges < s.max_range, s.ranges, 81.91))
         pose = f"{p.x():.4f} {p.y():.4f} {p.theta():.5f}"
-        lines.append(f"FLASER {len(s.ranges)} {r} {pose} {pose} {k * period:.3f} test {k * period:.3f}")
+        odom = f"{o.x():.4f} {o.y():.4f} {o.theta():.5f}"
+        lines.append(f"FLASER {len(s.ranges)} {r} {pose} {odom} {k * period:.3f} test {k * period:.3f}")
     path.write_text("\n".join(lines) + "\n")
 
 
@@ -239,3 +241,56 @@ def test_intel_drift_flags_a_pose_error_but_not_the_corrected_poses(shared_data)
         if flagged is None and com.needs_regeneration:
             flagged = i
     assert flagged is not None and flagged < 465
+
+
+def corridor_log(path, odometry_drift=None):
+    """A CARMEN log in the corridor world; with ``odometry_drift`` (rad per scan) a corrected log
+    whose odometry turns away from its poses."""
+    from sim.lidar import Lidar, LidarConfig
+
+    world = corridor_world()
+    poses = [gtsam.Pose2(x, 2.0, 0.0) for x in np.arange(1.5, 8.0, 0.5)]
+    lidar = Lidar(LidarConfig(beams=90), seed=0)
+    scans = [lidar.scan(world, p) for p in poses]
+    odometry = None
+    if odometry_drift is not None:
+        odometry = [gtsam.Pose2(p.x(), p.y(), k * odometry_drift) for k, p in enumerate(poses)]
+    write_flaser_log(path, poses, scans, odometry=odometry)
+    return path
+
+
+def test_map_at_a_raw_logs_own_poses_warns_and_suggests_slam_poses(tmp_path):
+    raw = corridor_log(tmp_path / "raw.clf")
+    result = CliRunner().invoke(app, ["map", str(raw), "--out", str(tmp_path / "raw"), "--max-range", "8"])
+    assert result.exit_code == 0, result.output
+    assert "warning: raw.clf has no corrected poses" in one_line(result.output)
+    assert "--poses slam" in one_line(result.output)
+    assert "no corrected poses" in json.loads((tmp_path / "raw" / "metrics.json").read_text())["warnings"][0]
+    corrected = corridor_log(tmp_path / "corrected.clf", odometry_drift=0.02)
+    result = CliRunner().invoke(app, ["map", str(corrected), "--out", str(tmp_path / "c"), "--max-range", "8"])
+    assert result.exit_code == 0 and "warning" not in result.output, result.output
+    assert json.loads((tmp_path / "c" / "metrics.json").read_text())["warnings"] == []
+
+
+def test_map_skips_malformed_lines_when_asked_and_says_how(tmp_path):
+    log = corridor_log(tmp_path / "log.clf")
+    lines = log.read_text().splitlines()
+    lines.insert(3, "FLASER 3 1.0 1.0 0 0 0 0 0 0 0 h 0")
+    log.write_text("\n".join(lines) + "\n")
+    result = CliRunner().invoke(app, ["map", str(log), "--out", str(tmp_path / "o"), "--max-range", "8"])
+    assert result.exit_code == 2 and "log.clf:4: FLASER line has 2 ranges" in one_line(result.output)
+    assert "--skip-malformed skips such lines" in one_line(result.output) and not (tmp_path / "o").exists()
+    result = CliRunner().invoke(app, ["map", str(log), "--out", str(tmp_path / "o"), "--max-range", "8",
+                                      "--skip-malformed"])
+    assert result.exit_code == 0, result.output
+    assert "skipped 1 malformed lines (first: line 4" in one_line(result.output)
+    assert (tmp_path / "o" / "com.npz").exists()
+
+
+def test_map_refuses_a_folder_gpexplore_did_not_write(tmp_path):
+    log = corridor_log(tmp_path / "log.clf")
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "notes.txt").write_text("x")
+    result = CliRunner().invoke(app, ["map", str(log), "--out", str(tmp_path / "mine"), "--overwrite"])
+    assert result.exit_code == 2 and "not a gpexplore run folder" in one_line(result.output)
+    assert (tmp_path / "mine" / "notes.txt").exists()

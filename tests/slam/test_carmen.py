@@ -129,3 +129,31 @@ def test_a_scan_with_no_odom_line_since_the_last_has_no_odometry(tmp_path):
     assert log[1].odometry is None                  # nothing was logged between scans 0 and 1
     # the increment before scan 2 chains on from scan 0's odometry (none came in between)
     assert log[2].odometry.equals(gtsam.Pose2(1.4, 0.1, 0.2), 1e-9)
+
+
+def test_a_malformed_line_error_carries_its_line_number(tmp_path):
+    path = tmp_path / "bad.clf"
+    path.write_text(flaser([1.0] * 3, (0, 0, 0), (0, 0, 0), 1.0) + "FLASER 3 1.0 0 0 0 0 0 0 2.0 host 2.0\n")
+    with pytest.raises(LogFormatError) as err:
+        CarmenLog(path)
+    assert err.value.line == 2
+    empty = tmp_path / "empty.clf"
+    empty.write_text("")
+    with pytest.raises(LogFormatError) as err:
+        CarmenLog(empty)
+    assert err.value.line is None
+
+
+def test_corrected_poses_are_told_from_raw_odometry(tmp_path):
+    path = tmp_path / "raw.clf"
+    path.write_text("".join(flaser([1.0] * 3, (0.1 * k, 0, 0), (0.1 * k, 0, 0), k) for k in range(10)))
+    assert not CarmenLog(path).has_corrected_poses()
+    # poses that part from the odometry by a turn of 0.2 rad are corrected poses
+    path.write_text("".join(flaser([1.0] * 3, (0.1 * k, 0, 0), (0.1 * k, 0, 0.02 * k), k) for k in range(11)))
+    assert CarmenLog(path).has_corrected_poses()
+
+
+@pytest.mark.parametrize("name, corrected", [("mit-csail.clf", False), ("intel-corrected.log.gz", True),
+                                             ("belgioioso-corrected.log.gz", True)])
+def test_real_logs_corrected_or_raw(shared_data, name, corrected):
+    assert CarmenLog(shared_data / "logs" / name).has_corrected_poses() == corrected
