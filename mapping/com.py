@@ -178,10 +178,8 @@ class ContinuousOccupancyMap:
                            self._free.precision, self._free.weighted)[0]
 
     def snapshot(self) -> MapSnapshot:
-        """Λ and Λo for the explorer (eq. 10 reads both), and the keyframes' hits."""
-        hits = np.vstack(self._keyframe_hits) if self._keyframe_hits else np.zeros((0, 2))
-        return MapSnapshot(self.prob(), self.prob_occ(), self.frame.origin, self.frame.resolution,
-                           hits)
+        """Λ and Λo for the explorer (eq. 10 reads both)."""
+        return MapSnapshot(self.prob(), self.prob_occ(), self.frame.origin, self.frame.resolution)
 
     def var(self) -> np.ndarray:
         """(h, w) variance of Λ; the larger prior variance where unseen."""
