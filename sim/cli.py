@@ -337,9 +337,11 @@ def posegraph(
     _check_file(out, "--out")
     try:
         g = read_g2o(graph)
-    except (G2oFormatError, OSError) as err:
+    except G2oFormatError as err:
         console.print(f"[red]error:[/red] {escape(str(err))}")
         raise typer.Exit(2) from None
+    for message in g.warnings:
+        warn(message)
     rotated = not frame_i_residual
     before = chi2(g, g.poses, rotated=rotated)
     tic = time.perf_counter()

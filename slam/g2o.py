@@ -31,10 +31,12 @@ class PoseGraph2D:
     Attributes:
         poses: id -> initial pose (from VERTEX_SE2 lines or composed along a spanning tree).
         edges: (i, j, measurement, Ω (3, 3)) in file order.
+        warnings: what the reader found suspicious, each naming the file and line.
     """
 
     poses: dict[int, gtsam.Pose2] = field(default_factory=dict)
     edges: list[tuple[int, int, gtsam.Pose2, np.ndarray]] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
 
     def factor_graph(self) -> gtsam.NonlinearFactorGraph:
         """The between factors (Gaussian noise from Ω), without a prior: the gauge stays free."""
@@ -57,38 +59,83 @@ class PoseGraph2D:
 
 def read_g2o(path: str | Path) -> PoseGraph2D:
     """Read VERTEX_SE2/EDGE_SE2 lines (other tags are skipped); missing vertices are initialised
-    by composing edges along a breadth-first spanning tree from the lowest id."""
+    by composing edges along a breadth-first spanning tree from the lowest id. In a file that
+    declares vertices, an edge to a vertex no VERTEX_SE2 line declares is a warning
+    (``PoseGraph2D.warnings``, naming the edge's line).
+
+    Raises:
+        G2oFormatError: the file cannot be read, a line is malformed (the file and line named),
+            there are no edges, or the graph is not connected.
+    """
     path = Path(path)
     graph = PoseGraph2D()
-    with open(path) as f:
-        for number, line in enumerate(f, start=1):
-            fields = line.split()
-            if not fields or fields[0].startswith("#"):
-                continue
-            tag = fields[0]
-            try:
-                if tag == "VERTEX_SE2":
-                    if len(fields) < 5:
-                        raise ValueError(f"VERTEX_SE2 line has {len(fields)} fields, expected 5")
-                    graph.poses[int(fields[1])] = gtsam.Pose2(*map(float, fields[2:5]))
-                elif tag == "EDGE_SE2":
-                    if len(fields) != 12:
-                        raise ValueError(f"EDGE_SE2 line has {len(fields)} fields, expected 12")
-                    i, j = int(fields[1]), int(fields[2])
-                    v = np.array(fields[3:12], dtype=float)
-                    if not np.all(np.isfinite(v)):
-                        raise ValueError("EDGE_SE2 line has a non-finite value")
-                    a, b, c, d, e, g = v[3:]
-                    info = np.array([[a, b, c], [b, d, e], [c, e, g]])
-                    if np.any(np.linalg.eigvalsh(info) <= 0):
-                        raise ValueError(f"EDGE_SE2 {i}->{j} information matrix is not positive definite")
-                    graph.edges.append((i, j, gtsam.Pose2(*v[:3]), info))
-            except ValueError as err:
-                raise G2oFormatError(f"{path}:{number}: {err}") from None
+    try:
+        text = path.read_bytes().decode()
+    except OSError as err:
+        raise G2oFormatError(f"{path}: cannot read: {err.strerror or err}") from None
+    except UnicodeDecodeError as err:
+        raise G2oFormatError(f"{path}: not a text file (byte {err.start} is not UTF-8)") from None
+    first_use: dict[int, int] = {}                  # vertex id -> first edge line naming it
+    for number, line in enumerate(text.splitlines(), start=1):
+        fields = line.split()
+        if not fields or fields[0].startswith("#"):
+            continue
+        tag = fields[0]
+        try:
+            if tag == "VERTEX_SE2":
+                if len(fields) < 5:
+                    raise ValueError(f"VERTEX_SE2 line has {len(fields)} fields, expected 5")
+                v = _finite(fields[2:5], "VERTEX_SE2")
+                graph.poses[_vertex_id(fields[1])] = gtsam.Pose2(*v)
+            elif tag == "EDGE_SE2":
+                if len(fields) != 12:
+                    raise ValueError(f"EDGE_SE2 line has {len(fields)} fields, expected 12")
+                i, j = _vertex_id(fields[1]), _vertex_id(fields[2])
+                if i == j:
+                    raise ValueError(f"EDGE_SE2 {i}->{j} joins a vertex to itself")
+                v = _finite(fields[3:12], "EDGE_SE2")
+                a, b, c, d, e, g = v[3:]
+                info = np.array([[a, b, c], [b, d, e], [c, e, g]])
+                eigenvalues = np.linalg.eigvalsh(info)
+                if not np.all(np.isfinite(eigenvalues)) or np.any(eigenvalues <= 0):
+                    raise ValueError(f"EDGE_SE2 {i}->{j} information matrix is not positive definite")
+                graph.edges.append((i, j, gtsam.Pose2(*v[:3]), info))
+                first_use.setdefault(i, number)
+                first_use.setdefault(j, number)
+        except ValueError as err:
+            raise G2oFormatError(f"{path}:{number}: {err}") from None
     if not graph.edges:
         raise G2oFormatError(f"{path}: no EDGE_SE2 lines: not a 2-D g2o pose graph")
+    undeclared = sorted(first_use.keys() - graph.poses.keys(), key=first_use.get)
+    if graph.poses and undeclared:
+        k = undeclared[0]
+        more = f" (and {len(undeclared) - 1} more)" if len(undeclared) > 1 else ""
+        graph.warnings.append(f"{path}:{first_use[k]}: an edge refers to vertex {k}, which no VERTEX_SE2 line "
+                              f"declares{more}; its pose is composed along the edges")
     _initialise_missing(graph, path)
     return graph
+
+
+def _vertex_id(text: str) -> int:
+    """A vertex id: an integer GTSAM can key (0 <= id < 2**63)."""
+    try:
+        key = int(text)
+    except ValueError:
+        raise ValueError(f"vertex id {text!r} is not an integer") from None
+    if not 0 <= key < 2 ** 63:
+        raise ValueError(f"vertex id {key} is out of range (0 to 2**63 - 1)")
+    return key
+
+
+def _finite(fields: list[str], tag: str) -> np.ndarray:
+    """The numbers of a line; ValueError for a non-numeric or non-finite one."""
+    try:
+        values = np.array([float(f) for f in fields])
+    except ValueError:
+        raise ValueError(f"{tag} line has a non-numeric field") from None
+    if not np.all(np.isfinite(values)):
+        raise ValueError(f"{tag} line has a non-finite value")
+    return values
 
 
 def _initialise_missing(graph: PoseGraph2D, path: Path) -> None:

@@ -122,3 +122,14 @@ def one_line(output):
 def squeezed(text):
     """``text`` without whitespace and rich's box: a wrapped path compares equal."""
     return "".join(text.replace("│", "").split())
+
+
+def test_posegraph_warns_of_an_undeclared_vertex_and_names_a_missing_file(tmp_path):
+    graph = tmp_path / "g.g2o"
+    graph.write_text("VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 7 1 0 0 1 0 0 1 0 1\n")
+    result = runner.invoke(app, ["posegraph", str(graph)])
+    assert result.exit_code == 0, result.output
+    assert squeezed(f"warning: {graph}:2: an edge refers to vertex 7") in squeezed(result.output)
+    result = runner.invoke(app, ["posegraph", str(tmp_path / "gone.g2o")])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    assert squeezed(f"Invalid value for 'GRAPH': file '{tmp_path / 'gone.g2o'}' does not exist.") in squeezed(result.output)

@@ -90,3 +90,40 @@ def test_csail_optimum_is_a_minimum(shared_data):
     g.poses = perturbed
     again, _ = optimize(g, method="lm")
     assert 2 * g.factor_graph().error(again) == pytest.approx(best, rel=1e-6)
+
+
+def test_an_edge_to_an_undeclared_vertex_is_a_warning_naming_its_line(tmp_path):
+    path = tmp_path / "g.g2o"
+    path.write_text("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n"
+                    "# a typo: 21 for 2\nEDGE_SE2 1 21 1 0 0 1 0 0 1 0 1\n")
+    g = read_g2o(path)
+    assert g.warnings == [f"{path}:5: an edge refers to vertex 21, which no VERTEX_SE2 line declares; "
+                          "its pose is composed along the edges"]
+    assert g.poses[21].equals(gtsam.Pose2(2, 0, 0), 1e-12)
+    # a graph of edges alone declares no vertex: composing them is the format's way, no warning
+    path.write_text("EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n")
+    assert read_g2o(path).warnings == []
+
+
+@pytest.mark.parametrize("text, message", [
+    ("VERTEX_SE2 0 0 nan 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n", ":1: VERTEX_SE2 line has a non-finite value"),
+    ("EDGE_SE2 0 -1 1 0 0 1 0 0 1 0 1\n", ":1: vertex id -1 is out of range"),
+    ("EDGE_SE2 0 0 1 0 0 1 0 0 1 0 1\n", ":1: EDGE_SE2 0->0 joins a vertex to itself"),
+    ("EDGE_SE2 0 1 1 0 0 1e308 1e308 0 1e308 0 1\n", ":1: EDGE_SE2 0->1 information matrix is not positive definite"),
+    ("EDGE_SE2 0 x 1 0 0 1 0 0 1 0 1\n", ":1: vertex id 'x' is not an integer"),
+])
+def test_malformed_lines_are_named(tmp_path, text, message):
+    path = tmp_path / "g.g2o"
+    path.write_text(text)
+    with pytest.raises(G2oFormatError) as err:
+        read_g2o(path)
+    assert str(err.value) == f"{path}{message}" or str(err.value).startswith(f"{path}{message}")
+
+
+def test_unreadable_files_are_format_errors_naming_the_file(tmp_path):
+    binary = tmp_path / "b.g2o"
+    binary.write_bytes(b"EDGE_SE2 \xff\xfe")
+    with pytest.raises(G2oFormatError, match=r"b\.g2o: not a text file"):
+        read_g2o(binary)
+    with pytest.raises(G2oFormatError, match=r"gone\.g2o: cannot read: No such file"):
+        read_g2o(tmp_path / "gone.g2o")
