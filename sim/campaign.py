@@ -13,7 +13,7 @@ import io
 import json
 import traceback
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import gtsam
@@ -45,12 +45,18 @@ ROWS = [
 @dataclass(frozen=True)
 class WorldSpec:
     """A world as a worker loads it: a built-in name, a bitmap (with ``size`` W, H in m or
-    ``resolution`` in m/pixel) or a ROS .yaml map, and the start X, Y, THETA (m, m, rad)."""
+    ``resolution`` in m/pixel) or a ROS .yaml map, and the start X, Y, THETA (m, m, rad).
+
+    A ``start`` of None asks for a seeded random start per run (``sim.suite.sample_start``,
+    drawn by ``plan``), the same for every method of a seed; ``max_steps``, when given, is this
+    world's step budget in place of the configuration's (``sim.suite.step_budget``).
+    """
 
     spec: str
-    start: tuple[float, float, float]
+    start: tuple[float, float, float] | None
     size: tuple[float, float] | None = None
     resolution: float | None = None
+    max_steps: int | None = None
 
     @property
     def name(self) -> str:
@@ -80,6 +86,24 @@ def world_spec(world: str, radius: float, start: tuple[float, float, float] | No
     return WorldSpec(spec, (pose.x(), pose.y(), pose.theta()), size, resolution)
 
 
+def suite_world_spec(world: str, radius: float, size: tuple[float, float] | None = None,
+                     resolution: float | None = None, max_steps: int | None = None) -> WorldSpec:
+    """A world of the suite benchmark: seeded random starts (``sim.suite.sample_start``) and the
+    step budget of its free area for a robot of ``radius`` m (``sim.suite.step_budget``), capped
+    at ``max_steps`` when given (smoke tests). Checked here as ``world_spec`` checks.
+
+    Raises FileNotFoundError or ValueError for a world that does not load or has no room for the
+    robot."""
+    from sim.suite import free_area_m2, step_budget
+    from sim.world_io import has_own_scale, load_world
+
+    if has_own_scale(world):
+        size = resolution = None
+    spec = world if world in BUILTIN_WORLDS else str(Path(world).absolute())
+    budget = step_budget(free_area_m2(load_world(world, size, resolution), radius))
+    return WorldSpec(spec, None, size, resolution, budget if max_steps is None else min(budget, max_steps))
+
+
 @dataclass(frozen=True)
 class Run:
     """One run of a campaign, plain data that pickles cheaply: the world is loaded by the worker."""
@@ -97,13 +121,35 @@ class Run:
 def plan(out: str | Path, worlds: list[WorldSpec], configs: dict[str, EpisodeConfig],
          seeds: list[int]) -> list[Run]:
     """Every (world, method, seed) run, each in ``<out>/<world>/<method>/seed_<k>/`` (an absolute
-    path: workers need not share this process's working directory)."""
+    path: workers need not share this process's working directory). A world without a start gets
+    seed k's random start in run k of every method; a world's own ``max_steps`` replaces the
+    configuration's."""
     names = [w.name for w in worlds]
     if len(set(names)) < len(names):
         raise ValueError(f"two worlds share a folder name: {', '.join(names)} (rename a map file)")
     out = Path(out).absolute()
-    return [Run(w, config.model_dump(), seed, str(out / w.name / method / f"seed_{seed}"))
-            for w in worlds for method, config in configs.items() for seed in seeds]
+    radii = sorted({c.robot.radius for c in configs.values()})
+    runs = []
+    for w in worlds:
+        starts = _seeded_starts(w, radii, seeds)
+        for method, config in configs.items():
+            if w.max_steps is not None:
+                config = config.overridden(max_steps=w.max_steps)
+            for seed in seeds:
+                world = w if w.start is not None else replace(w, start=starts[config.robot.radius, seed])
+                runs.append(Run(world, config.model_dump(), seed, str(out / w.name / method / f"seed_{seed}")))
+    return runs
+
+
+def _seeded_starts(world: WorldSpec, radii: list[float], seeds: list[int]) -> dict:
+    """{(radius, seed): (x, y, theta)} of ``sim.suite.sample_start``, for a world without a start."""
+    if world.start is not None:
+        return {}
+    from sim.suite import sample_start
+
+    loaded = world.load()
+    poses = {(r, s): sample_start(loaded, r, s) for r in radii for s in seeds}
+    return {key: (p.x(), p.y(), p.theta()) for key, p in poses.items()}
 
 
 def execute(run: Run) -> dict:

@@ -14,11 +14,12 @@ from dataclasses import dataclass, field
 import gtsam
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
+from scipy import ndimage
 from tqdm import tqdm
 
 from exploration.explorer import Plan
 from exploration.stack import Stack, StackConfig, StackStep
-from mapping.metrics import coverage, map_entropy, roc_auc
+from mapping.metrics import KNOWN, coverage, map_entropy, roc_auc
 from sim.animation import Frame, FrameRecorder
 from sim.lidar import Lidar, LidarConfig
 from sim.odometry import Odometry, OdometryNoise
@@ -26,6 +27,10 @@ from sim.robot import Robot, RobotConfig
 from sim.world import World
 from slam.poses import positions
 from slam.scan import LaserScan
+
+#: Unknown reachable regions smaller than this (m²) are not missed area: the scattered unknown cells
+#: of a seen room (1 m² is 400 cells of 5 cm, a corner or a niche the robot could stand in).
+MISSED_REGION_M2 = 1.0
 
 #: What observes a run: called after every step with (step, t, stack, out, scan, true pose).
 Observer = Callable[[int, float, Stack, StackStep, LaserScan, gtsam.Pose2], None]
@@ -74,11 +79,16 @@ class EpisodeConfig(BaseModel):
 
 @dataclass
 class Snapshot:
+    """The explorer at a goal choice, for ``sim.figures.frontier_figure``: the plan (frontier,
+    clusters, goal), the map's frame (``origin`` of cell (0, 0)'s centre, ``resolution`` in m)
+    and, when kept, the map then (``prob`` (h, w), float32)."""
+
     step: int
     pose: gtsam.Pose2
     plan: Plan
     origin: np.ndarray
     resolution: float
+    prob: np.ndarray | None = None
 
 
 @dataclass
@@ -98,16 +108,30 @@ class EpisodeResult:
 
 
 class Evaluator:
-    """A map against the true world: coverage of the reachable free space, map entropy over the
-    world's extent, and ROC AUC over the observed cells (``mapping.metrics``' definitions)."""
+    """A map against the true world: coverage of the reachable free space, the area of it missed,
+    map entropy over the world's extent, and ROC AUC over the observed cells (``mapping.metrics``'
+    definitions)."""
 
     def __init__(self, world: World, start_xy, radius: float):
-        iy, ix = np.nonzero(world.reachable(start_xy, radius))
-        self.free_xy = world.center_of(np.column_stack([ix, iy]))
+        self.reachable = world.reachable(start_xy, radius)
+        self.cells = np.nonzero(self.reachable)                       # (iy, ix)
+        self.free_xy = world.center_of(np.column_stack(self.cells[::-1]))
         self.world = world
 
     def coverage(self, stack: Stack, prob: np.ndarray) -> float:
         return coverage(stack.map.frame.sample(prob, self.free_xy))
+
+    def missed_area(self, stack: Stack, prob: np.ndarray, min_region_m2: float = MISSED_REGION_M2) -> float:
+        """m² of the reachable free space (the cells ``coverage`` reads) that the map ``prob``
+        does not know (|p − 0.5| ≤ ``KNOWN``), counted in 4-connected regions of at least
+        ``min_region_m2`` only: a missed room, not the scattered unknown cells of a seen one."""
+        known = np.abs(stack.map.frame.sample(prob, self.free_xy) - 0.5) > KNOWN
+        unknown = np.zeros_like(self.reachable)
+        unknown[self.cells[0][~known], self.cells[1][~known]] = True
+        labels, n = ndimage.label(unknown)
+        cell = self.world.resolution[0] * self.world.resolution[1]
+        areas = np.bincount(labels.ravel(), minlength=n + 1)[1:] * cell
+        return float(areas[areas >= min_region_m2].sum())
 
     def entropy(self, stack: Stack, prob: np.ndarray) -> float:
         """Nats over the world's extent on 0.2 m cells (unseen cells count ln 2)."""
@@ -119,6 +143,13 @@ class Evaluator:
         iy, ix = np.nonzero(np.abs(prob - 0.5) > 0.01)
         xy = frame.origin + frame.resolution * np.column_stack([ix, iy])
         return roc_auc(self.world.is_occupied(xy), prob[iy, ix])
+
+
+def stop_failed(reason: str, missed_area_m2: float) -> bool:
+    """Whether a run's end is a failure: it ran out of steps (``step_budget``), or it stopped by
+    itself (``no_reachable_goal`` or ``frontiers_exhausted``) while a reachable region of at
+    least ``MISSED_REGION_M2`` was still unknown (``missed_area_m2`` > 0 then)."""
+    return reason == "step_budget" or missed_area_m2 >= MISSED_REGION_M2
 
 
 class CurveRecorder:
@@ -138,17 +169,40 @@ class CurveRecorder:
 
 
 class SnapshotRecorder:
-    """Keeps the frontier map of the 1st, 3rd, 6th, 10th, ... goal choice (at most ``count``)."""
+    """Frontier snapshots spread over the whole run, whose length is not known in advance.
 
-    CHOICES = (1, 3, 6, 10, 15, 21)
+    Every goal choice is buffered as it comes; past ``2 * count`` buffered, one is dropped, never
+    the first or the latest: the one whose neighbours are closest in steps (its loss leaves the
+    smallest gap), so the buffer thins out evenly as the run grows. ``finish`` then puts ``count``
+    of them in ``snapshots``: the first, the last goal choice of the run, and between them those
+    nearest to evenly spaced steps (``count`` 1: the last only).
+    """
 
     def __init__(self, count: int, snapshots: list):
-        self.choices, self.snapshots = self.CHOICES[:count], snapshots
+        self.count, self.snapshots, self.buffer = count, snapshots, []
 
     def __call__(self, step, t, stack, out, scan, truth) -> None:
-        if out.plan is not None and out.plan.new_goal and stack.explorer.goals_chosen in self.choices:
-            self.snapshots.append(Snapshot(step, out.pose, out.plan, stack.map.frame.origin.copy(),
-                                           stack.map.frame.resolution))
+        if self.count == 0 or out.plan is None or not out.plan.new_goal:
+            return
+        self.buffer.append(Snapshot(step, out.pose, out.plan, stack.map.frame.origin.copy(),
+                                    stack.map.frame.resolution, stack.map.prob().astype(np.float32)))
+        if len(self.buffer) > max(2 * self.count, 2):
+            steps = np.array([s.step for s in self.buffer])
+            self.buffer.pop(1 + int(np.argmin(steps[2:] - steps[:-2])))
+
+    def finish(self) -> None:
+        """Put the chosen snapshots, in step order, in ``snapshots``."""
+        steps = np.array([s.step for s in self.buffer])
+        if len(steps) <= self.count:
+            chosen = list(range(len(steps)))
+        elif self.count == 1:
+            chosen = [len(steps) - 1]
+        else:
+            chosen = [0, len(steps) - 1]
+            for target in np.linspace(steps[0], steps[-1], self.count)[1:-1]:
+                free = [i for i in range(len(steps)) if i not in chosen]
+                chosen.append(min(free, key=lambda i: abs(steps[i] - target)))
+        self.snapshots[:] = [self.buffer[i] for i in sorted(chosen)]
 
 
 def run_episode(world: World, start: gtsam.Pose2, config: EpisodeConfig | None = None,
@@ -171,7 +225,8 @@ def run_episode(world: World, start: gtsam.Pose2, config: EpisodeConfig | None =
     result = EpisodeResult(metrics={}, stack=stack, config=c, world=world)
     curve = CurveRecorder(evaluator, robot, c.metrics_every, result.curve)
     recorder = FrameRecorder(c.animate_every) if c.animate_every else None
-    observers = [curve, SnapshotRecorder(c.snapshots, result.snapshots)]
+    snapshots = SnapshotRecorder(c.snapshots, result.snapshots)
+    observers = [curve, snapshots]
     observers += [o for o in (recorder, watch) if o is not None]
     dt = 1.0 / c.lidar.rate_hz
     reason = "step_budget"
@@ -194,6 +249,7 @@ def run_episode(world: World, start: gtsam.Pose2, config: EpisodeConfig | None =
         odometry.update(robot.move(out.command.v, out.command.w, dt))
     bar.close()
     wall = time.perf_counter() - tic
+    snapshots.finish()
     steps = len(result.stamps)
     if recorder is not None:
         recorder.finish(steps - 1, stack, result.estimate[-1])
@@ -210,6 +266,8 @@ def _metrics(result: EpisodeResult, evaluator: Evaluator, robot: Robot, seed: in
     curve = np.array(result.curve)
     steps = len(result.stamps)
     error = positions(result.estimate) - positions(result.truth)
+    prob = stack.map.prob()
+    missed = evaluator.missed_area(stack, prob)
     return {
         "world": result.world.name,
         "method": c.stack.explorer.method,
@@ -229,8 +287,10 @@ def _metrics(result: EpisodeResult, evaluator: Evaluator, robot: Robot, seed: in
         "final_map_entropy_nats": float(curve[-1, 3]),
         "entropy_rate_nats_per_step": float((curve[-1, 3] - curve[0, 3]) / max(steps, 1)),
         "coverage": float(curve[-1, 2]),
+        "missed_area_m2": missed,
+        "stop_failed": stop_failed(reason, missed),
         "travel_at_coverage_m": {f"{q:.2f}": _first_at(curve, q) for q in (0.90, 0.95, 0.99)},
-        "auc": evaluator.auc(stack, stack.map.prob()),
+        "auc": evaluator.auc(stack, prob),
         "ate_rmse_m": float(np.sqrt(np.mean(np.sum(error ** 2, axis=1)))),
         "collisions": robot.collisions,
     }

@@ -1,8 +1,13 @@
+from types import SimpleNamespace
+
 import gtsam
+import numpy as np
 import pytest
 
-from sim.episode import EpisodeConfig, run_episode
 from exploration.stack import StackConfig
+from mapping.grid import GridFrame
+from sim.episode import EpisodeConfig, Evaluator, SnapshotRecorder, run_episode, stop_failed
+from sim.world import World
 from small_worlds import two_rooms
 
 
@@ -41,3 +46,86 @@ def test_step_budget_is_a_termination_reason(world):
     config = EpisodeConfig(max_steps=30, stack=StackConfig(poses="truth"))
     m = run_episode(world, gtsam.Pose2(1.5, 1.5, 0.0), config, seed=0).metrics
     assert m["termination_reason"] == "step_budget" and m["steps"] == 30
+
+
+def test_a_step_budget_stop_with_a_room_unseen_is_a_failed_stop(world):
+    config = EpisodeConfig(max_steps=30, stack=StackConfig(poses="truth"))
+    m = run_episode(world, gtsam.Pose2(1.5, 1.5, 0.0), config, seed=0).metrics
+    reachable = Evaluator(world, (1.5, 1.5), config.robot.radius).reachable.sum() * 0.05 ** 2
+    # the robot has only turned on the spot: most of the right room is unseen, and missed
+    assert 1.0 <= m["missed_area_m2"] <= (1.0 - m["coverage"]) * reachable + 1e-9
+    assert m["stop_failed"] is True
+
+
+def test_a_stop_is_failed_only_when_a_region_is_missed():
+    assert not stop_failed("no_reachable_goal", 0.0) and not stop_failed("frontiers_exhausted", 0.0)
+    assert stop_failed("no_reachable_goal", 1.0) and stop_failed("frontiers_exhausted", 12.5)
+    assert stop_failed("step_budget", 0.0)
+
+
+def rooms_and_door() -> World:
+    """Room A, x in [0.1, 5.0), and room B, x in [5.2, 9.2), both y in [0.1, 5.1), 5 cm cells;
+    between them a wall with a 1 m door at y in [2.0, 3.0)."""
+    grid = np.ones((104, 186), dtype=bool)
+    grid[2:102, 2:100] = False
+    grid[2:102, 104:184] = False
+    grid[40:60, 100:104] = False
+    return World(grid, (0.05, 0.05), name="rooms_and_door")
+
+
+def map_knowing(world: World, known) -> SimpleNamespace:
+    """A stand-in stack whose map covers the world on the same 5 cm cells, p = 0.2 where
+    ``known(x, y)`` and 0.5 (unknown) elsewhere."""
+    frame = GridFrame(0.05)
+    frame.ensure((0, 0), (world.shape[1] - 1, world.shape[0] - 1))
+    h, w = frame.shape
+    centres = frame.centres(np.stack(np.meshgrid(np.arange(w) + frame.ix0, np.arange(h) + frame.iy0), axis=-1))
+    prob = np.where(known(centres[..., 0], centres[..., 1]), 0.2, 0.5)
+    return SimpleNamespace(map=SimpleNamespace(frame=frame, prob=lambda: prob)), prob
+
+
+def test_missed_area_is_the_unseen_part_of_a_room():
+    world = rooms_and_door()
+    # unknown: room B beyond x = 6.0, and a 0.5 m x 0.5 m patch of room A (0.25 m² < 1 m²)
+    patch = lambda x, y: (x > 1.0) & (x < 1.5) & (y > 1.0) & (y < 1.5)  # noqa: E731
+    stack, prob = map_knowing(world, lambda x, y: (x < 6.0) & ~patch(x, y))
+    evaluator = Evaluator(world, (1.5, 2.5), 0.25)
+    # room B's core (0.25 m from its walls, x up to 9.2 - 0.25) from x = 6.0: 2.95 m x 4.5 m
+    room = (9.2 - 0.25 - 6.0) * (5.0 - 2 * 0.25)
+    assert evaluator.missed_area(stack, prob) == pytest.approx(room, abs=0.05 * 5.0)
+    assert evaluator.missed_area(stack, prob, min_region_m2=0.1) == pytest.approx(room + 0.25, abs=0.05 * 5.0)
+    full, prob = map_knowing(world, lambda x, y: ~patch(x, y))
+    assert evaluator.missed_area(full, prob) == 0.0
+
+
+def fake_goal_choice(step):
+    stack = SimpleNamespace(map=SimpleNamespace(frame=SimpleNamespace(origin=np.zeros(2), resolution=0.1),
+                                                prob=lambda: np.full((3, 4), 0.5)))
+    out = SimpleNamespace(plan=SimpleNamespace(new_goal=True), pose=gtsam.Pose2(step, 0.0, 0.0))
+    return stack, out
+
+
+@pytest.mark.parametrize("choices", [3, 5, 37, 200])
+def test_snapshots_spread_over_the_whole_run_and_keep_the_last_goal(choices):
+    kept = []
+    recorder = SnapshotRecorder(4, kept)
+    steps = 10 * np.arange(choices)
+    for step in range(10 * choices):
+        stack, out = fake_goal_choice(step)
+        out.plan.new_goal = step in steps
+        recorder(step, 0.0, stack, out, None, None)
+    recorder.finish()
+    got = [s.step for s in kept]
+    assert len(got) == min(4, choices) and got[0] == 0 and got[-1] == steps[-1]
+    # no two kept choices closer than a third of an even spread's gap
+    assert np.diff(got).min() >= steps[-1] / 3 / 3, got
+    assert kept[-1].prob.dtype == np.float32 and kept[-1].prob.shape == (3, 4)
+
+
+def test_no_snapshots_when_none_are_asked():
+    kept = []
+    stack, out = fake_goal_choice(0)
+    recorder = SnapshotRecorder(0, kept)
+    recorder(0, 0.0, stack, out, None, None)
+    recorder.finish()
+    assert kept == []

@@ -1,0 +1,122 @@
+"""The suite benchmark's pieces: seeded random starts, the area-based step budget, the manifest."""
+
+import numpy as np
+import pytest
+
+from sim.campaign import WorldSpec, plan
+from sim.data import shared_data_dir
+from sim.episode import EpisodeConfig
+from sim.suite import MIN_STEPS, STEPS_PER_M2, free_area_m2, sample_start, step_budget, suite_maps
+from sim.world import World
+
+RADIUS = 0.25
+RES = 0.05
+
+
+def two_rooms_with_a_slit() -> World:
+    """10 m x 6 m inside walls 0.1 m thick: a 6 m room on the left with a 1 m pillar, a 3.8 m room
+    on the right, between them a wall at x 6.0-6.2 with a 0.4 m slit (narrower than the robot)."""
+    grid = np.zeros((round(6.2 / RES), round(10.2 / RES)), dtype=bool)
+    grid[:2], grid[-2:], grid[:, :2], grid[:, -2:] = True, True, True, True
+    grid[:, 120:124] = True
+    grid[60:68, 120:124] = False                       # the slit, y in [3.0, 3.4)
+    grid[40:60, 40:60] = True                          # the pillar, x and y in [2, 3)
+    return World(grid, (RES, RES), name="slit")
+
+
+@pytest.fixture(scope="module")
+def world():
+    return two_rooms_with_a_slit()
+
+
+def test_starts_are_in_the_largest_region_and_clear_of_walls(world):
+    for seed in range(30):
+        pose = sample_start(world, RADIUS, seed)
+        xy = np.array([pose.x(), pose.y()])
+        # the left room (x in [0.1, 6.0)), 0.5 m from its walls and the pillar: checked exactly
+        assert 0.6 <= xy[0] <= 5.5 and 0.6 <= xy[1] <= 5.6, xy
+        assert not world.collides(xy, 0.5), xy
+        assert np.hypot(*np.maximum(np.abs(xy - 2.5) - 0.5, 0.0)) >= 0.5, xy     # the pillar
+        reach = world.reachable(xy, RADIUS)
+        assert not reach[:, 124:].any()                                           # not through the slit
+        assert reach.sum() * RES * RES == pytest.approx(free_area_m2(world, RADIUS))
+        assert -np.pi <= pose.theta() <= np.pi
+
+
+def test_starts_are_the_same_for_a_seed_and_differ_across_seeds(world):
+    poses = [sample_start(world, RADIUS, seed) for seed in range(10)]
+    again = [sample_start(world, RADIUS, seed) for seed in range(10)]
+    assert all(a.equals(b, 0.0) for a, b in zip(poses, again))
+    xy = {(round(p.x(), 3), round(p.y(), 3)) for p in poses}
+    assert len(xy) == 10
+    headings = np.array([p.theta() for p in poses])
+    assert headings.std() > 1.0                          # uniform on [-π, π) has s.d. 1.81
+
+
+def test_starts_spread_over_the_region(world):
+    xs = np.array([sample_start(world, RADIUS, seed).x() for seed in range(60)])
+    # the clear band is x in [0.6, 5.5]: uniform draws land on both halves
+    assert (xs < 3.0).sum() > 10 and (xs > 3.0).sum() > 10
+
+
+def test_a_world_with_no_clear_place_says_so():
+    corridor = np.ones((20, 100), dtype=bool)
+    corridor[4:16, 2:98] = False                         # 0.6 m wide: the robot fits, 0.5 m clear nowhere
+    with pytest.raises(ValueError, match="0.5 m from the walls"):
+        sample_start(World(corridor, (RES, RES), name="corridor"), RADIUS, 0)
+
+
+def test_the_budget_grows_with_the_area_above_todays_floor():
+    assert step_budget(0.0) == step_budget(190.0) == MIN_STEPS == 6000
+    assert step_budget(1000.0) == 22_500 and STEPS_PER_M2 == 22.5
+    assert step_budget(2850.0) == pytest.approx(2850.0 / 267.0 * 6000, rel=0.01)
+    with pytest.raises(ValueError):
+        step_budget(float("nan"))
+
+
+def test_the_free_area_is_the_robots_largest_region(world):
+    # left room's interior 5.9 x 6.0 m, less 0.25 m at each wall, less the pillar grown by 0.25 m
+    # (1.5 x 1.5 m with rounded corners: (1 + 4 * 0.25) + π 0.25²), on 5 cm cells
+    interior = (5.9 - 0.5) * (6.0 - 0.5)
+    pillar = 1.0 + 4 * 0.25 * 1.0 + np.pi * 0.25 ** 2
+    assert free_area_m2(world, RADIUS) == pytest.approx(interior - pillar, abs=0.1)
+
+
+def test_plan_gives_every_method_the_same_seeded_start_and_the_worlds_budget(tmp_path, world):
+    image = tmp_path / "slit.png"
+    from PIL import Image
+
+    Image.fromarray(np.where(np.flipud(world.occupied), 0, 255).astype(np.uint8)).save(image)
+    spec = WorldSpec(str(image), None, resolution=RES, max_steps=123)
+    base = EpisodeConfig()
+    runs = plan(tmp_path / "out", [spec], {m: base.overridden(method=m) for m in ("gp", "grid")}, [0, 1, 2])
+    by = {(r.method, r.seed): r for r in runs}
+    for seed in (0, 1, 2):
+        assert by["gp", seed].world.start == by["grid", seed].world.start
+        expected = sample_start(spec.load(), RADIUS, seed)
+        assert np.allclose(by["gp", seed].world.start, (expected.x(), expected.y(), expected.theta()))
+    assert len({by["gp", s].world.start for s in (0, 1, 2)}) == 3
+    assert all(r.config["max_steps"] == 123 for r in runs)
+
+
+@pytest.mark.skipif(shared_data_dir() is None, reason="shared data not found")
+def test_the_suite_manifest_lists_its_maps():
+    folder = shared_data_dir() / "maps" / "suite"
+    maps = suite_maps(folder)
+    assert len(maps) == 16 and maps[0].name == "lab_a.yaml" and all(p.is_file() for p in maps)
+    assert suite_maps(folder / "manifest.csv", ["office_g", "lab_c.yaml"]) == [folder / "office_g.yaml",
+                                                                            folder / "lab_c.yaml"]
+    with pytest.raises(ValueError, match="no map called lab_z"):
+        suite_maps(folder, ["lab_z"])
+
+
+@pytest.mark.skipif(shared_data_dir() is None, reason="shared data not found")
+def test_starts_on_a_real_floor_plan_are_reachable_and_clear():
+    from sim.world_io import load_world
+
+    world = load_world(shared_data_dir() / "maps" / "suite" / "lab_a.yaml")
+    area = free_area_m2(world, RADIUS)
+    for seed in range(3):
+        pose = sample_start(world, RADIUS, seed)
+        assert not world.collides((pose.x(), pose.y()), 0.5)
+        assert world.reachable((pose.x(), pose.y()), RADIUS).sum() * RES * RES == pytest.approx(area)
