@@ -1,5 +1,5 @@
-"""The floor-plan suite as a benchmark runs it: its worlds, a seeded random start in each, and a
-step budget that grows with the free area to explore.
+"""The floor-plan suite as a benchmark runs it: its worlds, a seeded random start in each, a
+step budget that grows with the free area to explore, and how a suite campaign's runs score.
 
 bc-exploration's recipe: many runs per map, each from a random start in the largest free region
 the robot reaches, counted a success when the run ends by itself with the reachable space seen.
@@ -8,7 +8,10 @@ the robot reaches, counted a success when the run ends by itself with the reacha
 from __future__ import annotations
 
 import csv
+import io
+import json
 import math
+from collections import Counter
 from pathlib import Path
 
 import gtsam
@@ -116,3 +119,182 @@ def suite_maps(where: str | Path, names: list[str] | None = None) -> list[Path]:
     if missing:
         raise FileNotFoundError(f"{manifest}: listed maps are missing: {', '.join(missing)}")
     return list(rows.values())
+
+
+# --- scoring a suite campaign -----------------------------------------------------------------
+
+#: A run succeeds when it ends by itself (no crash, no step-budget stop, no ``stop_failed``)
+#: with at least this core coverage.
+SUCCESS_COVERAGE = 0.99
+
+
+def outcome(run) -> dict:
+    """A campaign ``Run``'s end as the suite scores it: world, method, seed, ``metrics`` (None
+    unless finished) and ``crashed`` (it left error.json)."""
+    from sim.campaign import failed, finished
+
+    folder = Path(run.folder)
+    metrics = json.loads((folder / "metrics.json").read_text()) if finished(run) else None
+    return {"world": run.world.name, "method": run.method, "seed": run.seed, "metrics": metrics,
+            "crashed": failed(run)}
+
+
+def tail_share(m: dict) -> float | None:
+    """Share of a run's travel driven after it first reached 99 % coverage; None if it never did."""
+    at99, travel = m["travel_at_coverage_m"].get("0.99"), m["travel_distance_m"]
+    if at99 is None:
+        return None
+    return (travel - at99) / travel if travel > 0 else 0.0
+
+
+def failed_stop(m: dict) -> bool:
+    """metrics.json's ``stop_failed``, computed for runs written before it existed."""
+    from sim.episode import stop_failed
+
+    if "stop_failed" in m:
+        return m["stop_failed"]
+    return stop_failed(m["termination_reason"], m.get("missed_area_m2", 0.0))
+
+
+def succeeded(m: dict | None) -> bool:
+    """A finished run that ended by itself with the reachable space seen (``SUCCESS_COVERAGE``)."""
+    return m is not None and not failed_stop(m) and m["coverage"] >= SUCCESS_COVERAGE
+
+
+def cost_per_scan_ms(m: dict) -> float:
+    """Wall time per scan of a run, ms."""
+    return 1000.0 * m["wall_time_s"] / max(m["steps"], 1)
+
+
+def _mean(values) -> float | None:
+    values = [v for v in values if v is not None]
+    return float(np.mean(values)) if values else None
+
+
+def suite_rows(outcomes: list[dict]) -> list[dict]:
+    """One row per world and method, in the order of ``outcomes``: runs planned, finished, crashed
+    and succeeded; coverage mean and worst; travel, tail share, missed area (mean and worst),
+    ATE and cost per scan, means over the finished runs; collisions summed; how runs ended."""
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for o in outcomes:
+        groups.setdefault((o["world"], o["method"]), []).append(o)
+    rows = []
+    for (world, method), group in groups.items():
+        done = [o["metrics"] for o in group if o["metrics"] is not None]
+        reasons = Counter(m["termination_reason"] for m in done)
+        rows.append({
+            "world": world, "method": method, "runs": len(group), "finished": len(done),
+            "crashed": sum(o["crashed"] for o in group), "succeeded": sum(map(succeeded, done)),
+            "coverage": _mean(m["coverage"] for m in done),
+            "coverage_worst": min((m["coverage"] for m in done), default=None),
+            "travel_m": _mean(m["travel_distance_m"] for m in done),
+            "tail_share": _mean(map(tail_share, done)),
+            "missed_area_m2": _mean(m.get("missed_area_m2") for m in done),
+            "missed_area_worst_m2": max((m.get("missed_area_m2", 0.0) for m in done), default=None),
+            "ended": dict(sorted(reasons.items())),
+            "collisions": sum(m["collisions"] for m in done),
+            "ate_m": _mean(m["ate_rmse_m"] for m in done),
+            "ms_per_scan": _mean(map(cost_per_scan_ms, done)),
+        })
+    return rows
+
+
+#: The world whose cost per scan the largest map's is held against (the Stage cave at 20 m x 20 m,
+#: else the built-in cave).
+COST_REFERENCES = ("cave.png", "cave")
+
+
+def suite_summary(outcomes: list[dict], wall_s: float) -> dict:
+    """The suite's figures over every planned run: the share that succeeded (``succeeded``),
+    crashes, collisions, step-budget stops and failed stops; the C-frontier/grid travel as the
+    mean of ratios paired by world and seed (both finished); the mean tail share; the GP cost per
+    scan on the largest world (by reachable area) against the cave's; ``wall_s`` (the benchmark's
+    wall time) and the finished runs' wall time summed."""
+    done = [o["metrics"] for o in outcomes if o["metrics"] is not None]
+    travel = {(o["world"], o["seed"], o["method"]): o["metrics"]["travel_distance_m"]
+              for o in outcomes if o["metrics"] is not None}
+    ratios = [travel[w, s, "gp"] / travel[w, s, "grid"] for (w, s, method) in travel
+              if method == "gp" and (w, s, "grid") in travel and travel[w, s, "grid"] > 0]
+    gp_cost: dict[str, list[float]] = {}
+    area: dict[str, float] = {}
+    for o in outcomes:
+        if o["metrics"] is not None and o["method"] == "gp":
+            gp_cost.setdefault(o["world"], []).append(cost_per_scan_ms(o["metrics"]))
+            area[o["world"]] = o["metrics"].get("reachable_area_m2", 0.0)
+    largest = max(area, key=area.get) if area else None
+    reference = next((w for w in COST_REFERENCES if w in gp_cost), None)
+    return {
+        "runs": len(outcomes), "finished": len(done),
+        "succeeded": sum(map(succeeded, done)),
+        "crashed": sum(o["crashed"] for o in outcomes),
+        "collisions": sum(m["collisions"] for m in done),
+        "step_budget_stops": sum(m["termination_reason"] == "step_budget" for m in done),
+        "failed_stops": sum(failed_stop(m) and m["termination_reason"] != "step_budget" for m in done),
+        "travel_ratio": _mean(ratios), "pairs": len(ratios),
+        "tail_share": _mean(map(tail_share, done)),
+        "largest": largest, "largest_ms_per_scan": _mean(gp_cost.get(largest, [])) if largest else None,
+        "reference": reference, "reference_ms_per_scan": _mean(gp_cost[reference]) if reference else None,
+        "wall_s": wall_s, "runs_wall_s": sum(m["wall_time_s"] for m in done),
+    }
+
+
+def _num(value, fmt: str, scale: float = 1.0) -> str:
+    return "—" if value is None else format(scale * value, fmt)
+
+
+def summary_line(s: dict) -> str:
+    """``suite_summary`` in one line."""
+    cost = "cost per scan: no GP run"
+    if s["largest"] is not None:
+        cost = f"GP cost per scan {s['largest']} {s['largest_ms_per_scan']:.1f} ms"
+        if s["reference"] is not None and s["reference"] != s["largest"]:
+            cost += (f" = {s['largest_ms_per_scan'] / s['reference_ms_per_scan']:.2f}x {s['reference']}'s "
+                     f"{s['reference_ms_per_scan']:.1f} ms")
+    share = s["succeeded"] / s["runs"] if s["runs"] else 0.0
+    return (f"suite: {s['succeeded']}/{s['runs']} runs ({100 * share:.0f} %) ended by themselves with "
+            f">= {100 * SUCCESS_COVERAGE:.0f} % coverage; {s['crashed']} crashed, {s['collisions']} collisions, "
+            f"{s['step_budget_stops']} step-budget stops, {s['failed_stops']} failed stops (missed >= 1 m²); "
+            f"gp/grid travel {_num(s['travel_ratio'], '.2f')} (mean of {s['pairs']} paired ratios); "
+            f"tail {_num(s['tail_share'], '.1f', 100)} % of travel; {cost}; wall {s['wall_s'] / 60:.1f} min "
+            f"(runs' own {s['runs_wall_s'] / 60:.1f} min)")
+
+
+#: The suite table's columns: (header, row key, format, scale).
+COLUMNS = [("world", "world", "s", 1), ("method", "method", "s", 1), ("ok/runs", None, "", 1),
+           ("crashed", "crashed", "d", 1), ("coverage %", "coverage", ".1f", 100),
+           ("worst %", "coverage_worst", ".1f", 100), ("travel m", "travel_m", ".1f", 1),
+           ("tail %", "tail_share", ".1f", 100), ("missed m²", "missed_area_m2", ".1f", 1),
+           ("worst missed m²", "missed_area_worst_m2", ".1f", 1), ("ended", "ended", "", 1),
+           ("collisions", "collisions", "d", 1), ("ATE m", "ate_m", ".3f", 1),
+           ("ms/scan", "ms_per_scan", ".1f", 1)]
+
+
+def _cell(row: dict, key, fmt: str, scale: float) -> str:
+    if key is None:
+        done = f" ({row['finished']} done)" if row["finished"] < row["runs"] else ""
+        return f"{row['succeeded']}/{row['runs']}{done}"
+    if key == "ended":
+        return ", ".join(f"{reason} {n}" for reason, n in row["ended"].items()) or "—"
+    value = row[key]
+    if isinstance(value, str):
+        return value
+    return _num(value, fmt, scale)
+
+
+def rows_markdown(rows: list[dict]) -> str:
+    """``suite_rows`` as a Markdown table."""
+    lines = ["| " + " | ".join(c[0] for c in COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
+    lines += ["| " + " | ".join(_cell(row, key, fmt, scale) for _, key, fmt, scale in COLUMNS) + " |" for row in rows]
+    return "\n".join(lines) + "\n"
+
+
+def rows_csv(rows: list[dict]) -> str:
+    """``suite_rows`` as CSV, one column per row key (``ended`` as reason:count pairs)."""
+    text = io.StringIO()
+    keys = list(rows[0]) if rows else []
+    sheet = csv.writer(text, lineterminator="\n")
+    sheet.writerow(keys)
+    for row in rows:
+        sheet.writerow(["" if row[k] is None else (" ".join(f"{r}:{n}" for r, n in row[k].items())
+                                                   if k == "ended" else row[k]) for k in keys])
+    return text.getvalue()

@@ -120,3 +120,75 @@ def test_starts_on_a_real_floor_plan_are_reachable_and_clear():
         pose = sample_start(world, RADIUS, seed)
         assert not world.collides((pose.x(), pose.y()), 0.5)
         assert world.reachable((pose.x(), pose.y()), RADIUS).sum() * RES * RES == pytest.approx(area)
+
+
+# --- scoring ------------------------------------------------------------------------------------
+
+
+def fabricated(world, method, seed, travel, coverage=0.995, reason="frontiers_exhausted", at99=None,
+               missed=0.0, collisions=0, wall=10.0, steps=1000, area=300.0):
+    from sim.episode import stop_failed
+
+    return {"world": world, "method": method, "seed": seed, "crashed": False, "metrics": {
+        "travel_distance_m": travel, "coverage": coverage, "termination_reason": reason,
+        "travel_at_coverage_m": {"0.90": None, "0.95": None, "0.99": at99}, "missed_area_m2": missed,
+        "stop_failed": stop_failed(reason, missed), "collisions": collisions, "ate_rmse_m": 0.1,
+        "wall_time_s": wall, "steps": steps, "reachable_area_m2": area}}
+
+
+def crashed(world, method, seed):
+    return {"world": world, "method": method, "seed": seed, "crashed": True, "metrics": None}
+
+
+def outcomes():
+    return [
+        fabricated("cave.png", "gp", 0, 60.0, at99=54.0, wall=10.0, steps=1000),          # ok, tail 10 %
+        fabricated("cave.png", "gp", 1, 80.0, at99=60.0, wall=12.0, steps=1000),          # ok, tail 25 %
+        fabricated("cave.png", "grid", 0, 50.0, at99=50.0),                               # ok, tail 0
+        fabricated("cave.png", "grid", 1, 100.0, coverage=0.97, reason="step_budget", collisions=2),
+        fabricated("big.yaml", "gp", 0, 300.0, coverage=0.992, reason="no_reachable_goal", missed=4.0,
+                   at99=280.0, wall=30.0, steps=2000, area=2500.0),                       # failed stop
+        crashed("big.yaml", "gp", 1),
+        fabricated("big.yaml", "grid", 0, 200.0, coverage=0.999, reason="no_reachable_goal", at99=190.0),
+        crashed("big.yaml", "grid", 1),
+    ]
+
+
+def test_the_summary_counts_successes_failures_and_pairs_the_travel():
+    from sim.suite import suite_summary, summary_line
+
+    s = suite_summary(outcomes(), wall_s=600.0)
+    assert (s["runs"], s["finished"], s["succeeded"], s["crashed"]) == (8, 6, 4, 2)
+    assert (s["collisions"], s["step_budget_stops"], s["failed_stops"]) == (2, 1, 1)
+    # pairs (world, seed) with both methods finished: cave 0 (60/50), cave 1 (80/100), big 0 (300/200)
+    assert s["pairs"] == 3 and s["travel_ratio"] == pytest.approx((1.2 + 0.8 + 1.5) / 3)
+    # tails of the runs that reached 99 %: 6/60, 20/80, 0, 20/300, 10/200
+    assert s["tail_share"] == pytest.approx((0.1 + 0.25 + 0.0 + 20 / 300 + 0.05) / 5)
+    # GP cost per scan: big (the largest area) 15 ms against the Stage cave's (10 + 12) / 2 ms
+    assert s["largest"] == "big.yaml" and s["largest_ms_per_scan"] == pytest.approx(15.0)
+    assert s["reference"] == "cave.png" and s["reference_ms_per_scan"] == pytest.approx(11.0)
+    line = summary_line(s)
+    assert line.startswith("suite: 4/8 runs (50 %) ended by themselves with >= 99 % coverage; 2 crashed, "
+                           "2 collisions, 1 step-budget stops, 1 failed stops")
+    assert "gp/grid travel 1.17 (mean of 3 paired ratios)" in line and "1.36x cave.png" in line
+    assert "\n" not in line
+
+
+def test_a_row_per_world_and_method():
+    from sim.suite import rows_csv, rows_markdown, suite_rows
+
+    rows = suite_rows(outcomes())
+    assert [(r["world"], r["method"]) for r in rows] == [("cave.png", "gp"), ("cave.png", "grid"),
+                                                         ("big.yaml", "gp"), ("big.yaml", "grid")]
+    grid = rows[1]
+    assert (grid["runs"], grid["finished"], grid["succeeded"], grid["crashed"]) == (2, 2, 1, 0)
+    assert grid["coverage"] == pytest.approx(0.9825) and grid["coverage_worst"] == pytest.approx(0.97)
+    assert grid["ended"] == {"frontiers_exhausted": 1, "step_budget": 1} and grid["collisions"] == 2
+    big = rows[2]
+    assert (big["finished"], big["crashed"], big["succeeded"]) == (1, 1, 0)
+    assert big["missed_area_worst_m2"] == 4.0 and big["ms_per_scan"] == pytest.approx(15.0)
+    md = rows_markdown(rows).splitlines()
+    assert len(md) == 2 + 4
+    assert md[3].startswith("| cave.png | grid | 1/2 | 0 | 98.2 | 97.0 | 75.0 | 0.0 |")
+    assert "| big.yaml | gp | 0/2 (1 done) | 1 |" in md[4]
+    assert len(rows_csv(rows).splitlines()) == 1 + 4
