@@ -174,9 +174,19 @@ def _parse_odom(fields: list[str]) -> tuple[gtsam.Pose2, float]:
     return _pose(values[0:3]), float(values[6])
 
 
+def _count(fields: list[str], index: int, what: str) -> int:
+    """The count at ``fields[index]``; ValueError naming ``what`` when it is missing or not one."""
+    if index >= len(fields):
+        raise ValueError(f"{fields[0]} line ends before its {what} ({len(fields)} fields)")
+    try:
+        return int(fields[index])
+    except ValueError:
+        raise ValueError(f"{fields[0]} {what} {fields[index]!r} is not an integer") from None
+
+
 def _parse_flaser(fields: list[str], max_range: float):
     # FLASER n r_1..r_n x y theta odom_x odom_y odom_theta ipc_timestamp ipc_hostname logger_ts
-    n = int(fields[1])
+    n = _count(fields, 1, "beam count")
     expected = n + 11
     if n < 1 or len(fields) != expected:
         raise ValueError(f"FLASER line has {len(fields) - 11} ranges for n = {n} "
@@ -192,16 +202,18 @@ def _parse_robotlaser(fields: list[str], max_range: float):
     # ROBOTLASER1 type start_angle fov angular_res max_range accuracy remission_mode n r_1..r_n
     #   m rem_1..rem_m laser_x laser_y laser_theta robot_x robot_y robot_theta tv rv
     #   forward_safety_dist side_safety_dist turn_axis ipc_timestamp ipc_hostname logger_ts
-    start, _, resolution, sensor_max = _floats(fields[2:6], "ROBOTLASER1 header")
-    n = int(fields[8])
-    ranges = _floats(fields[9:9 + n], "ROBOTLASER1 ranges")
-    m = int(fields[9 + n])
-    rest = fields[10 + n + m:]
-    if n < 1 or m < 0 or len(rest) != 15:
+    n = _count(fields, 8, "beam count")
+    if n < 1:
+        raise ValueError(f"ROBOTLASER1 beam count {n} is not positive")
+    m = _count(fields, 9 + n, "remission count")
+    rest = fields[10 + n + m:] if m >= 0 else []
+    if m < 0 or len(rest) != 15:
         raise ValueError(f"ROBOTLASER1 line has {len(fields)} fields, inconsistent with "
                          f"n = {n} ranges and m = {m} remissions")
+    start, _, resolution, sensor_max = _floats(fields[2:6], "ROBOTLASER1 header")
+    ranges = _floats(fields[9:9 + n], "ROBOTLASER1 ranges")
     tail = _floats(rest[:12], "ROBOTLASER1 poses")
-    timestamp = float(rest[12])
+    timestamp = float(_floats(rest[12:13], "ROBOTLASER1 timestamp")[0])
     angles = start + resolution * np.arange(n)
     effective_max = min(max_range, sensor_max) if sensor_max > 0 else max_range
     scan = LaserScan(ranges, angles, effective_max, timestamp=timestamp)
