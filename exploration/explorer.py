@@ -17,7 +17,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from exploration.costmap import CostmapConfig, passable
-from exploration.frontier_methods import CFrontier, Frontier, GridFrontier, Reachable
+from exploration.frontier_methods import CFrontier, Frontier, GridFrontier, Reachable, evidence
 from exploration.goals import Blacklist, FrontierCluster, GoalConfig
 from exploration.paths import distance_field, near_distance
 from mapping.occupancy import MapSnapshot
@@ -40,10 +40,19 @@ class ExplorerConfig(BaseModel):
         "clearance from a cell's centre can touch the wall the cell hides (on the Stage cave 2 "
         "of 10 runs ended pinned to a corner). The COM needs no such cost: on the office world it "
         "led SLAM into larger errors, and 4 of 8 runs lost a room")
-    min_frontier_cells: int = Field(10, ge=1, description="grid method: smallest frontier region, cells")
+    min_frontier_cells: int = Field(20, ge=1, description="grid method: smallest frontier region, "
+                                    "cells: 2 m of 0.1 m cells, the 10 cells of 0.2 m the paper's "
+                                    "grid used")
     robot_radius: float = Field(0.25, gt=0, description="m")
     min_goal_distance: float = Field(0.3, ge=0, description="a goal closer than this (m) to the "
                                      "robot is one it cannot observe better: blacklisted")
+    min_gain: float = Field(1.0, ge=0, description="gp method, m²: a frontier cluster whose goal "
+                            "would show less unknown area than this, looking round to "
+                            "sensor_range, is not significant (the stop's sensitivity; "
+                            "missed_area_m2 counts regions of 1 m²). Built-in cave, 3 seeds: 52.6 m "
+                            "travelled against 60.6 m without. The grid baseline keeps Yamauchi's "
+                            "stop (on the Stage cave it drove 57.5 m with this test, 48.6 m without)")
+    sensor_range: float = Field(8.0, gt=0, description="m, the laser's, for that look")
 
 
 Done = Literal["frontiers_exhausted", "no_reachable_goal"]
@@ -135,8 +144,7 @@ class Explorer:
         origin, resolution = np.asarray(snapshot.origin, float), snapshot.resolution
         here = np.array([pose.x(), pose.y()])
         start = np.round((here - origin) / resolution).astype(int)
-        prob = snapshot.prob if snapshot.traversable is None else snapshot.traversable
-        ok, cost = passable(prob, resolution, c.robot_radius, self.method.costmap, snapshot.hits,
+        ok, cost = passable(evidence(snapshot), resolution, c.robot_radius, self.method.costmap, snapshot.hits,
                             origin)
         # the robot stands on free ground even where its sensor has not looked (behind it)
         h, w = ok.shape
@@ -155,3 +163,4 @@ class Explorer:
         near = np.min(np.linalg.norm(points[:, None, :] - targets[None, :: max(1, len(targets) // 32)],
                                      axis=2), axis=1)
         return bool(np.count_nonzero(near < self.config.goals.reach) >= self.config.goals.min_points // 2)
+

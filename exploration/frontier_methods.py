@@ -15,6 +15,7 @@ import numpy as np
 
 from exploration.costmap import CostmapConfig
 from exploration.frontier import frontier_map
+from exploration.gain import visible_unknown_area
 from exploration.goals import Blacklist, FrontierCluster, extract_goals
 from exploration.grid_frontier import grid_frontiers
 from exploration.paths import best_cell_near, path_to
@@ -59,17 +60,20 @@ class Reachable:
 @dataclass(frozen=True)
 class Frontier:
     """A snapshot's frontier: ``values`` (h, w) the frontier map (F, or 1 on grid frontier
-    cells), ``cells`` (n, 2) its significant cells (ix, iy), and for the grid method its
-    ``regions`` (a list of (m, 2) cell arrays)."""
+    cells), ``cells`` (n, 2) its significant cells (ix, iy), for the grid method its
+    ``regions`` (a list of (m, 2) cell arrays), and for the C-frontier method the snapshot's
+    ``evidence`` (h, w) its significance test looks round on."""
 
     values: np.ndarray
     cells: np.ndarray
     regions: tuple[np.ndarray, ...] = ()
+    evidence: np.ndarray | None = None
 
 
 class CFrontier:
     """The paper's method: the C-frontier map F (eq. 10) thresholded, clustered with k-means and
-    ranked by the utility of eq. 11."""
+    ranked by the utility of eq. 11; a cluster is significant when a look round from its goal
+    (from its centroid when it has none) would show ``min_gain`` m² of unknown space."""
 
     def __init__(self, config: ExplorerConfig):
         self.config = config
@@ -79,12 +83,17 @@ class CFrontier:
         c = self.config
         values = frontier_map(snapshot.prob, snapshot.prob_occ, snapshot.resolution, c.beta, c.smoothing)
         iy, ix = np.nonzero(values > c.goals.threshold)
-        return Frontier(values, np.column_stack([ix, iy]))
+        return Frontier(values, np.column_stack([ix, iy]), evidence=evidence(snapshot))
 
     def clusters(self, frontier: Frontier, reachable: Reachable, blacklist: Blacklist,
                  rng: np.random.Generator) -> list[FrontierCluster]:
-        return extract_goals(frontier.values, reachable.origin, reachable.resolution, reachable.dist,
-                             self.config.goals, blacklist, seed=int(rng.integers(2**31)))
+        c = self.config
+        clusters = extract_goals(frontier.values, reachable.origin, reachable.resolution,
+                                 reachable.dist, c.goals, blacklist, seed=int(rng.integers(2**31)))
+        return [k for k in clusters if visible_unknown_area(
+            frontier.evidence, reachable.origin, reachable.resolution,
+            k.goal if k.goal is not None else k.centroid, c.sensor_range,
+            self.costmap.occupied_above) >= c.min_gain]
 
 
 class GridFrontier:
@@ -122,3 +131,9 @@ class GridFrontier:
                                             -float(d[best])))
         clusters.sort(key=lambda k: -k.utility)
         return clusters
+
+
+def evidence(snapshot: MapSnapshot) -> np.ndarray:
+    """(h, w) the map the planner reads free, occupied and unknown space from: the stack's
+    costmap grid when it gave one, else the map itself."""
+    return snapshot.prob if snapshot.traversable is None else snapshot.traversable

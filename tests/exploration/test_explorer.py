@@ -329,3 +329,17 @@ def test_grid_method_on_the_same_maps_keeps_its_goal_too():
     assert np.isfinite(path_length(explored, here, first, config))
     over = explorer.plan(explored, gtsam.Pose2(*here, 0.0))
     assert over.goal is None and over.done == "frontiers_exhausted"
+
+
+def test_stop_fires_on_an_observed_room_with_remnant_texture():
+    """The closed room with a 0.6 m x 0.6 m pocket left unknown in its middle (what a COM's
+    holes look like): there is frontier around it, and a goal next to it would show 0.36 m²,
+    under the 1 m² of a significant frontier. The C-frontier explorer stops; asked for any gain
+    (min_gain 0), it would drive there."""
+    snapshot = closed_room()
+    snapshot.prob[37:43, 57:63] = UNKNOWN
+    snapshot.prob_occ[37:43, 57:63] = UNKNOWN
+    config = ExplorerConfig(goals=GoalConfig(min_points=5))
+    assert Explorer(config.model_copy(update={"min_gain": 0.0})).plan(snapshot, ROBOT).goal is not None
+    plan = Explorer(config).plan(snapshot, ROBOT)
+    assert plan.goal is None and plan.done == "frontiers_exhausted"
