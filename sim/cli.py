@@ -129,13 +129,9 @@ def world(
         if area.enclosed:
             warn(area.warning())
     if out:
-        import matplotlib.pyplot as plt
+        from sim.figures import world_figure
 
-        from sim.figures import plot_world, save_figure
-
-        fig, ax = plt.subplots(figsize=(8, 8 * height / width + 0.5))
-        plot_world(ax, w)
-        save_figure(fig, out, dpi=120)
+        world_figure(out, w, start, radius)
         console.print(f"figure: {out}", markup=False)
 
 
@@ -423,7 +419,7 @@ def explore(
     result = run_episode(w, pose, cfg, seed=seed, progress=True, watch=watch)
     if watch:
         watch.close()
-    write_episode(out, result)
+    write_episode(out, result, progress=True)
     m = result.metrics
     console.print(f"{m['termination_reason']}: {m['travel_distance_m']:.1f} m in {m['sim_time_s']:.0f} s of "
                   f"robot time ({m['wall_time_s']:.1f} s wall), coverage {100 * m['coverage']:.1f} %, "
@@ -482,7 +478,13 @@ def _run_and_report(worlds, configs, seeds: int, out: Path, engine: str, workers
 
 @app.command()
 def campaign(
+    ctx: typer.Context,
     worlds: Worlds = ("cave", "office"),
+    suite: Annotated[Optional[Path], typer.Option(
+        exists=True, help="a floor-plan suite (its folder or manifest.csv): explore its maps, or "
+        "those --worlds names, each run from a random start drawn from its seed in the largest "
+        "free region, at least 0.5 m from walls, with a step budget by the free area (22.5 scans "
+        "per m², at least 6000; --max-steps caps it)")] = None,
     methods: Methods = ("gp", "grid"),
     seeds: Seeds = 10,
     engine: Annotated[Engine, typer.Option(help="local (process pool) or dask (Dask distributed)")] = Engine.local,
@@ -499,14 +501,24 @@ def campaign(
 ):
     """Run every (world, method, seed) in parallel; each run lands in its folder as it finishes, so
     an interrupted campaign resumes. Writes Table I per world (table.md, table.csv) and figures/."""
-    from sim.campaign import world_spec
+    from click.core import ParameterSource
+
+    from sim.campaign import suite_world_spec, world_spec
+    from sim.suite import suite_maps
 
     if scheduler is not None and workers is not None:
         raise typer.BadParameter("the cluster at --scheduler has its own workers", param_hint="'--workers'")
     base = episode_config(config)
-    configs = {m.value: _config_for(base, m, poses, max_steps) for m in methods}
-    with _world_errors("--worlds"):
-        specs = [world_spec(w, base.robot.radius, None, size, resolution) for w in worlds]
+    configs = {m.value: _config_for(base, m, poses, None if suite else max_steps) for m in methods}
+    radius = base.robot.radius
+    if suite is None:
+        with _world_errors("--worlds"):
+            specs = [world_spec(w, radius, None, size, resolution) for w in worlds]
+    else:
+        named = ctx.get_parameter_source("worlds") != ParameterSource.DEFAULT
+        with _world_errors("--suite"):
+            maps = suite_maps(suite, list(worlds) if named else None)
+            specs = [suite_world_spec(str(m), radius, max_steps=max_steps) for m in maps]
     _run_and_report(specs, configs, seeds, out, engine.value, workers, scheduler)
 
 

@@ -115,10 +115,10 @@ def _check_creatable(path: Path) -> None:
 CURVE_COLUMNS = ("step", "time_s", "travel_m", "coverage", "entropy_nats")
 
 
-def write_episode(out: str | Path, result: EpisodeResult) -> None:
+def write_episode(out: str | Path, result: EpisodeResult, progress: bool = False) -> None:
     """metrics.json, config.toml (the run's configuration), curve.csv, trajectory.tum,
     ground_truth.tum, graph.g2o (Pose SLAM), com.npz (a COM), map.pgm + map.yaml and figures/ (with the
-    animation when frames were recorded) in ``out``; metrics.json, with the start's area
+    animation when frames were recorded, its rendering with a progress bar when ``progress``) in ``out``; metrics.json, with the start's area
     (``start_metrics``), is written last, so a folder that has it holds a finished run."""
     out = Path(out)
     stack = result.stack
@@ -133,7 +133,7 @@ def write_episode(out: str | Path, result: EpisodeResult) -> None:
     if isinstance(stack.map, ContinuousOccupancyMap):
         save_com(out / "com.npz", stack.map)
     write_ros_map(out / "map.pgm", prob, stack.map.frame.origin, stack.map.frame.resolution)
-    _figures(out / "figures", result, prob)
+    _figures(out / "figures", result, prob, progress)
     write_json_atomic(out / "metrics.json", {**result.metrics, **start_metrics(result)})
 
 
@@ -148,7 +148,7 @@ def start_metrics(result: EpisodeResult) -> dict:
     return {**area.metrics(), "warnings": warnings}
 
 
-def _figures(folder: Path, result: EpisodeResult, prob: np.ndarray) -> None:
+def _figures(folder: Path, result: EpisodeResult, prob: np.ndarray, progress: bool) -> None:
     stack = result.stack
     m = result.metrics
     loops = stack.loop_segments()
@@ -159,7 +159,7 @@ def _figures(folder: Path, result: EpisodeResult, prob: np.ndarray) -> None:
     frontier_figure(folder / "frontier_maps.png", result.snapshots)
     entropy_figure(folder / "entropy.png", {m["method"]: result.curve})
     if result.frames:
-        write_animation(folder, result)
+        write_animation(folder, result, progress=progress)
     if isinstance(stack.map, ContinuousOccupancyMap):
         from mapping.figure import com_figure
 

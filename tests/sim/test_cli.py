@@ -209,6 +209,27 @@ def test_campaign_writes_runs_tables_and_figures(tmp_path):
     assert again.exit_code == 0 and "2 runs were done before, 0 finished now" in again.output
 
 
+def test_campaign_explores_the_suite_from_seeded_starts(tmp_path, shared_data):
+    """--suite with --worlds: the named maps only, each run from its seed's random start (the
+    same for both methods), its budget capped by --max-steps."""
+    from sim.suite import sample_start
+    from sim.world_io import load_world
+
+    suite = shared_data / "maps" / "suite"
+    out = tmp_path / "c"
+    result = runner.invoke(app, ["campaign", "--suite", str(suite), "--worlds", "lab_c", "--seeds", "1",
+                                 "--poses", "truth", "--max-steps", "30", "--workers", "2", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert [p.name for p in out.iterdir() if p.is_dir() and p.name != "figures"] == ["lab_c.yaml"]
+    start = sample_start(load_world(suite / "lab_c.yaml"), 0.25, 0)
+    for method in ("gp", "grid"):
+        m = json.loads((out / "lab_c.yaml" / method / "seed_0" / "metrics.json").read_text())
+        np.testing.assert_allclose(m["start"], [start.x(), start.y(), start.theta()])
+        assert m["steps"] <= 30
+    bad = runner.invoke(app, ["campaign", "--suite", str(suite), "--worlds", "atlantis", "--out", str(tmp_path / "d")])
+    assert bad.exit_code == 2 and "--suite" in bad.output and "atlantis" in bad.output
+
+
 def test_campaign_rejects_bad_options_by_name(tmp_path):
     for args, option in ((["--worlds", "atlantis"], "--world"), (["--engine", "spark"], "--engine"),
                          (["--methods", "gp,gp"], "--methods"), (["--methods", "astar"], "--method"),
