@@ -14,12 +14,11 @@ class CostmapConfig(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     free_below: float = Field(0.35, gt=0, lt=1, description="Λ below this is free")
-    occupied_above: float = Field(0.65, gt=0, lt=1, description="Λ above this is occupied "
-                                  "(and so is every cell holding a measured hit)")
+    occupied_above: float = Field(0.65, gt=0, lt=1, description="Λ above this is occupied")
     margin: float = Field(0.02, ge=0, description="meters of clearance added to the robot "
                           "radius, beyond the hits (2 sigma of the range noise): a 0.25 m robot "
-                          "then fits through doors wider than 0.54 m (a lab's are 0.65 m), and "
-                          "the navigator's guard keeps it off what the current scan shows")
+                          "fits through doors wider than 0.54 m; the navigator's guard keeps it "
+                          "off what the current scan shows")
     unknown_clearance: float = Field(
         0.1, ge=0, description="meters the robot's centre keeps from unknown cells; occupied "
         "cells are kept at radius + margin. The COM leaves a band near walls unknown, so "

@@ -33,25 +33,21 @@ class ExplorerConfig(BaseModel):
     beta: float = Field(2.5, ge=0, description="β of eq. 10")
     smoothing: float = Field(0.1, ge=0, description="Gaussian smoothing of Λ, Λo before eq. 10, m")
     goals: GoalConfig = GoalConfig()
-    costmap: CostmapConfig = Field(CostmapConfig(), description="the C-frontier method's, on the COM")
+    costmap: CostmapConfig = Field(CostmapConfig(), description="the C-frontier method's, on the "
+                                   "stack's costmap grid")
     grid_costmap: CostmapConfig = Field(
-        CostmapConfig(near_wall_cost=2.0), description="the grid method's, on the log-odds grid: "
-        "paths keep off walls where there is room, since on 0.2 m cells a path at the robot's "
-        "clearance from a cell's centre can touch the wall the cell hides (on the Stage cave 2 "
-        "of 10 runs ended pinned to a corner). The COM needs no such cost: on the office world it "
-        "led SLAM into larger errors, and 4 of 8 runs lost a room")
+        CostmapConfig(near_wall_cost=2.0), description="the grid method's, on its log-odds grid: "
+        "paths keep off walls where there is room")
     min_frontier_cells: int = Field(10, ge=1, description="grid method: smallest frontier region, "
-                                    "cells (1 m of 0.1 m cells, two robot diameters; 20 left 28 "
-                                    "% of a 5 m x 3 m room unseen)")
+                                    "cells (1 m of 0.1 m cells, two robot diameters)")
     robot_radius: float = Field(0.25, gt=0, description="m")
     min_goal_distance: float = Field(0.3, ge=0, description="a goal closer than this (m) to the "
                                      "robot is one it cannot observe better: blacklisted")
     min_gain: float = Field(1.0, ge=0, description="gp method, m²: a frontier cluster whose goal "
                             "would show less unknown area than this, looking round to "
                             "sensor_range, is not significant (the stop's sensitivity; "
-                            "missed_area_m2 counts regions of 1 m²). Built-in cave, 3 seeds: 52.6 m "
-                            "travelled against 60.6 m without. The grid baseline keeps Yamauchi's "
-                            "stop: frontier regions of min_frontier_cells")
+                            "missed_area_m2 counts regions of 1 m²). The grid baseline keeps "
+                            "Yamauchi's stop: frontier regions of min_frontier_cells")
     sensor_range: float = Field(8.0, gt=0, description="m, the laser's, for that look")
 
 

@@ -19,13 +19,11 @@ class GoalConfig(BaseModel):
 
     threshold: float = Field(0.6, ge=0, description="keep points with F above this: the desired sensitivity")
     min_points: int = Field(20, ge=1, description="fewer frontier points than this: no frontier "
-                            "left (20 points of 0.1 m: the 2 m the grid baseline's 10 cells of "
-                            "0.2 m span)")
+                            "left (20 points of 0.1 m: 2 m of frontier)")
     points_per_cluster: int = Field(40, ge=1, description="k = ceil(n / points_per_cluster)")
     alpha: float = Field(3.0, ge=0, description="weight of information against sqrt(distance); "
                          "the paper gives no value. n/N grows as frontiers run out, so a large α "
-                         "sends the robot across the map late in a run for the biggest remnant "
-                         "(Stage cave, 10 seeds: α 10 travelled 75.9 m, α 3 62.4 m)")
+                         "sends the robot across the map late in a run for the biggest remnant")
     reach: float = Field(0.6, gt=0, description="meters from a frontier point to a goal cell")
     blacklist_radius: float = Field(0.75, gt=0, description="meters around a failed goal")
 
