@@ -18,7 +18,7 @@ import tomli_w
 import yaml
 from pydantic import BaseModel, ValidationError
 
-from sim.episode import EpisodeConfig
+from sim.episode import DERIVED_SETTINGS, EpisodeConfig
 from slam.atomic import write_text_atomic
 
 if sys.version_info >= (3, 11):
@@ -67,8 +67,10 @@ def read_config(path: str | Path, model: type[BaseModel] = EpisodeConfig) -> Bas
 
 
 def dumps_config(config: BaseModel) -> str:
-    """``config`` as TOML, every field written (None ones left out), its description above it."""
-    text = tomli_w.dumps(config.model_dump(exclude_none=True))
+    """``config`` as TOML, every field written (None ones and, for the root EpisodeConfig, those
+    derived from others, ``DERIVED_SETTINGS``, left out), its description above it."""
+    derived = DERIVED_SETTINGS if isinstance(config, EpisodeConfig) else None
+    text = tomli_w.dumps(config.model_dump(exclude_none=True, exclude=derived))
     return _HEADER + "\n" + _describe(text, type(config))
 
 

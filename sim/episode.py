@@ -48,7 +48,8 @@ class EpisodeConfig(BaseModel):
 
     robot: RobotConfig = RobotConfig()
     lidar: LidarConfig = LidarConfig()
-    odometry: OdometryNoise = OdometryNoise()
+    # the variances as the decimals they are (OdometryNoise's 0.05**2 is 0.0025000000000000005)
+    odometry: OdometryNoise = OdometryNoise(alpha1=0.0025, alpha2=0.0025, alpha3=0.0025, alpha4=0.0001)
     stack: StackConfig = StackConfig()
     max_steps: int = Field(6000, ge=1, description="scans before the run stops (step_budget)")
     metrics_every: int = Field(25, ge=1, description="steps between coverage/entropy samples")
@@ -69,12 +70,31 @@ class EpisodeConfig(BaseModel):
             data["max_steps"] = max_steps
         return self.model_validate(data)
 
-    @model_validator(mode="after")
-    def _planner_fits_the_robot(self):
-        if self.stack.explorer.robot_radius < self.robot.radius:
-            raise ValueError(f"stack.explorer.robot_radius {self.stack.explorer.robot_radius} m is "
-                             f"smaller than robot.radius {self.robot.radius} m: its paths would collide")
-        return self
+    @model_validator(mode="before")
+    @classmethod
+    def _planner_plans_for_the_robot(cls, data):
+        """``stack.explorer.robot_radius`` is derived: the robot's ``robot.radius``. A value the
+        user gives for it is accepted only when it is the robot's."""
+        if not isinstance(data, dict):
+            return data
+        robot = data.get("robot", {})
+        radius = (robot.get("radius", RobotConfig.model_fields["radius"].default) if isinstance(robot, dict)
+                  else robot.radius)
+        stack = data.get("stack", {})
+        stack = dict(stack) if isinstance(stack, dict) else stack.model_dump(exclude_unset=True)
+        explorer = stack.get("explorer", {})
+        explorer = dict(explorer) if isinstance(explorer, dict) else explorer.model_dump(exclude_unset=True)
+        given = explorer.get("robot_radius")
+        if given is not None and given != radius:
+            raise ValueError(f"stack.explorer.robot_radius {given} m differs from robot.radius {radius} m: "
+                             "the explorer plans for the robot's radius, set robot.radius only")
+        explorer["robot_radius"] = radius
+        return {**data, "stack": {**stack, "explorer": explorer}}
+
+
+#: Settings derived from others (``EpisodeConfig``'s validator sets them): not written to
+#: configuration files, as a user does not set them.
+DERIVED_SETTINGS = {"stack": {"explorer": {"robot_radius"}}}
 
 
 @dataclass
@@ -242,21 +262,34 @@ def run_episode(world: World, start: gtsam.Pose2, config: EpisodeConfig | None =
         result.estimate.append(out.pose)
         for observe in observers:
             observe(step, t, stack, out, scan, robot.pose)
+        bar.set_postfix_str(run_state(stack, result.curve), refresh=False)
         bar.update()
         if out.done is not None:
             reason = out.done
             break
         odometry.update(robot.move(out.command.v, out.command.w, dt))
+    steps = len(result.stamps)
+    curve.sample(steps, stack)
+    bar.total = bar.n          # a run that stopped by itself is complete, not an abort at n / max_steps
+    bar.set_postfix_str(f"{run_state(stack, result.curve)}, {reason}", refresh=False)
+    bar.refresh()
     bar.close()
     wall = time.perf_counter() - tic
     snapshots.finish()
-    steps = len(result.stamps)
     if recorder is not None:
         recorder.finish(steps - 1, stack, result.estimate[-1])
         result.frames = recorder.frames
-    curve.sample(steps, stack)
     result.metrics = _metrics(result, evaluator, robot, seed, start, reason, steps * dt, wall)
     return result
+
+
+def run_state(stack: Stack, curve: list) -> str:
+    """The run's state for its progress bar: the goal (x, y) m or "spin", the keyframes and
+    loop closures so far, and the coverage of the curve's last sample (``CurveRecorder``)."""
+    plan = stack.plan
+    goal = "spin" if plan is None or plan.goal is None else f"goal ({plan.goal[0]:.1f}, {plan.goal[1]:.1f})"
+    coverage = f", coverage {100 * curve[-1][2]:.0f} %" if curve else ""
+    return f"{goal}, {stack.keyframes} keyframes, {stack.loops} loops{coverage}"
 
 
 def _metrics(result: EpisodeResult, evaluator: Evaluator, robot: Robot, seed: int,

@@ -41,6 +41,7 @@ def test_dump_holds_every_setting_and_loads_back_equal(tmp_path):
     text = dumps_config(EpisodeConfig())
     expected = {prefix + name for prefix, model in sections() for name, field in model.model_fields.items()
                 if not (isinstance(field.annotation, type) and issubclass(field.annotation, BaseModel))}
+    expected -= {"stack.explorer.robot_radius"}                      # derived from robot.radius
     assert leaves(tomllib.loads(text)) == expected
     assert "# β of eq. 10\nbeta = 2.5" in text                      # descriptions as comments
     changed = EpisodeConfig.model_validate({
@@ -88,7 +89,9 @@ def test_every_section_rejects_unknown_keys():
     ("[stack.slam.front_end.registration]\nvoxel_sizes = [1.0, \"fine\"]\n",
      "cfg.toml: stack.slam.front_end.registration.voxel_sizes[1]: Input should be a valid number"),
     ("[stack.com.free]\nnu = 2.0\n", "cfg.toml: stack.com.free.nu: Value error, Matérn nu must be"),
-    ("[robot]\nradius = 0.3\n", "stack.explorer.robot_radius 0.25 m is smaller than robot.radius 0.3 m"),
+    ("[stack.explorer]\nrobot_radius = 0.3\n",
+     "cfg.toml: Value error, stack.explorer.robot_radius 0.3 m differs from robot.radius 0.25 m: the "
+     "explorer plans for the robot's radius, set robot.radius only"),
     ("max_steps = 3\n[lidar\nbeams = 3\n", "cfg.toml: Expected ']' at the end of a table declaration "
      "(at line 2, column 7)"),
 ])
@@ -151,3 +154,41 @@ def test_a_saved_configuration_reproduces_its_run_and_a_changed_one_changes_it(t
     assert result.exit_code == 0, result.output
     m = json.loads((tmp_path / "c" / "metrics.json").read_text())
     assert m["steps"] == 7 and m["sim_time_s"] == pytest.approx(7 / 5.0)
+
+
+def test_the_explorer_plans_for_the_robots_radius_set_in_one_place(tmp_path):
+    """robot.radius is the one setting; the explorer's radius is derived from it, not dumped, and
+    a file that sets it to another value is refused."""
+    assert EpisodeConfig().stack.explorer.robot_radius == EpisodeConfig().robot.radius
+    path = tmp_path / "cfg.toml"
+    path.write_text("[robot]\nradius = 0.3\n")
+    cfg = read_config(path)
+    assert cfg.stack.explorer.robot_radius == 0.3
+    assert cfg.overridden(method="grid").stack.explorer.robot_radius == 0.3
+    assert "robot_radius" not in dumps_config(cfg)
+    path.write_text(dumps_config(cfg))
+    assert read_config(path) == cfg
+    path.write_text("[robot]\nradius = 0.3\n[stack.explorer]\nrobot_radius = 0.3\n")
+    assert read_config(path) == cfg                                  # the same value is no conflict
+    with pytest.raises(ValueError, match="robot_radius 0.4 m differs from robot.radius 0.25 m"):
+        EpisodeConfig(stack={"explorer": {"robot_radius": 0.4}})
+
+
+def test_dumped_defaults_carry_no_float_noise():
+    """Every float of the default configuration is written as the short decimal it was meant to
+    be (0.05**2 is 0.0025000000000000005): no shorter decimal within one ulp of it."""
+    text = dumps_config(EpisodeConfig())
+    assert "alpha1 = 0.0025\n" in text and "0000000" not in text
+
+    def noisy(value):
+        return isinstance(value, float) and any(
+            0 < abs(float(f"{value:.{d}g}") - value) <= np.spacing(abs(value)) for d in range(1, 16))
+
+    def floats(table):
+        for value in table.values():
+            if isinstance(value, dict):
+                yield from floats(value)
+            else:
+                yield from (value if isinstance(value, list) else [value])
+
+    assert not [v for v in floats(tomllib.loads(text)) if noisy(v)]

@@ -129,3 +129,31 @@ def test_no_snapshots_when_none_are_asked():
     recorder(0, 0.0, stack, out, None, None)
     recorder.finish()
     assert kept == []
+
+
+def box(side_m: float = 3.0) -> World:
+    """An empty square room, walls around: the robot sees it all from its start."""
+    cells = int(side_m / 0.05)
+    grid = np.zeros((cells, cells), dtype=bool)
+    grid[:2], grid[-2:], grid[:, :2], grid[:, -2:] = True, True, True, True
+    return World(grid, (0.05, 0.05), name="box")
+
+
+def test_the_progress_bar_completes_on_a_normal_stop_and_shows_the_state(capsys):
+    config = EpisodeConfig(max_steps=3000, stack=StackConfig(poses="truth", explorer={"method": "grid"}))
+    m = run_episode(box(), gtsam.Pose2(1.5, 1.5, 0.0), config, progress=True).metrics
+    assert m["termination_reason"] == "frontiers_exhausted" and m["steps"] < 100
+    last = capsys.readouterr().err.rstrip().split("\r")[-1]
+    steps = m["steps"]
+    assert "100%" in last and f"{steps}/{steps} [" in last, last      # not {steps}/3000 at 1 %
+    assert f"{m['keyframes']} keyframes, {m['loop_closures']} loops, coverage 100 %" in last, last
+    assert "frontiers_exhausted" in last and "00:0" in last            # the reason; elapsed time
+
+
+def test_run_state_names_the_goal_or_the_spin():
+    from sim.episode import run_state
+
+    stack = SimpleNamespace(plan=None, keyframes=3, loops=1)
+    assert run_state(stack, []) == "spin, 3 keyframes, 1 loops"
+    stack.plan = SimpleNamespace(goal=np.array([2.04, -1.0]))
+    assert run_state(stack, [(10, 1.0, 0.456, 9.0)]) == "goal (2.0, -1.0), 3 keyframes, 1 loops, coverage 46 %"
