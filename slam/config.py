@@ -3,7 +3,8 @@ the MIT CSAIL log and on the simulator's 8 m / 180° Stage-like laser."""
 
 from __future__ import annotations
 
-from pydantic import BaseModel, ConfigDict, Field, PositiveFloat
+import gtsam
+from pydantic import BaseModel, ConfigDict, Field, FiniteFloat, PositiveFloat
 
 
 class _Config(BaseModel):
@@ -168,3 +169,12 @@ class SlamConfig(_Config):
     keyframes: KeyframeConfig = KeyframeConfig()
     loop_closure: LoopClosureConfig = LoopClosureConfig()
     back_end: BackEndConfig = BackEndConfig()
+    laser_offset: list[FiniteFloat] = Field(
+        [0.0, 0.0, 0.0], min_length=3, max_length=3,
+        description="the laser's pose in the robot's base frame (the odometry's frame): x (m), y (m), "
+        "θ (rad); scans are taken at base ∘ offset. Used where the log does not state it (a bag's "
+        "/tf_static, a CARMEN log's laser and robot poses)")
+
+    def laser_mount(self) -> gtsam.Pose2:
+        """``laser_offset`` as a pose: the laser's pose in the base frame."""
+        return gtsam.Pose2(*self.laser_offset)

@@ -1,6 +1,8 @@
 """The localiser's interface, and the localiser that is told its poses.
 
-A localiser turns (odometry, scan) into the scan's pose, decides which scans are keyframes,
+A localiser turns (odometry, scan) into the scan's pose (the robot base's pose when the scan was
+taken; the laser sits at ``laser_offset`` on the base, so the scan's own origin is
+``pose ∘ laser_offset``), decides which scans are keyframes,
 and may correct its keyframes later (loop closures). Two implement it: ``PoseSlam``
 (``pose_slam.py``, the method's) and ``GivenPoses``, which takes each scan's pose from
 outside: ground truth in simulation (perfect localisation, for ablations), or a corrected
@@ -43,6 +45,8 @@ class Localiser(Protocol):
     """Where each scan was taken, and which scans are keyframes."""
 
     keyframe_scans: list[LaserScan]
+    #: the laser's pose in the base frame: scan i's points are in the frame ``pose(i) ∘ laser_offset``
+    laser_offset: gtsam.Pose2
 
     def step(self, odometry: gtsam.Pose2 | None, scan: LaserScan,
              given: gtsam.Pose2 | None = None) -> Localisation:
@@ -63,10 +67,12 @@ class Localiser(Protocol):
 
 class GivenPoses:
     """A localiser told every scan's pose: a scan is a keyframe when it moved enough since the
-    last keyframe (``min_translation`` or ``min_rotation_deg`` of the keyframe settings)."""
+    last keyframe (``min_translation`` or ``min_rotation_deg`` of the keyframe settings). The
+    given poses are the base's; the laser sits at ``laser_offset`` on it (identity by default)."""
 
-    def __init__(self, config: KeyframeConfig | None = None):
+    def __init__(self, config: KeyframeConfig | None = None, laser_offset: gtsam.Pose2 | None = None):
         self.config = config or KeyframeConfig()
+        self.laser_offset = laser_offset or gtsam.Pose2()
         self.keyframe_scans: list[LaserScan] = []
         self._keyframes: list[int] = []
         self._poses: list[gtsam.Pose2] = []

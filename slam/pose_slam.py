@@ -14,7 +14,7 @@ from slam.front_end import ScanOdometry
 from slam.g2o import write_g2o
 from slam.localiser import Localisation
 from slam.loop_closure import LoopClosure, LoopClosureDetector
-from slam.registration import scan_normals
+from slam.registration import scan_normals, transform
 from slam.scan import LaserScan
 
 
@@ -29,10 +29,16 @@ class PoseSlam:
 
     A ``slam.localiser.Localiser``: its ``step`` returns a ``Localisation`` whose ``corrected``
     is True when loops moved keyframes more than ``loop_closure.moved_threshold``.
+
+    Every pose is the robot base's (the odometry's frame); the laser sits at ``laser_offset``
+    (the configuration's ``laser_offset``) on the base, so a scan's points enter the base frame
+    once, in ``step``, and everything after (front end, keyframes, loop closures) works there.
     """
 
     def __init__(self, config: SlamConfig | None = None):
         self.config = config or SlamConfig()
+        #: the laser's pose in the base frame: a scan is taken at pose ∘ laser_offset
+        self.laser_offset = self.config.laser_mount()
         self.front_end = ScanOdometry(self.config.front_end)
         self.graph = PoseGraph(self.config.back_end)
         self.detector = LoopClosureDetector(self.config.loop_closure, self.config.front_end.registration)
@@ -58,6 +64,8 @@ class PoseSlam:
         """Track the scan, make it a keyframe if it is informative, then close loops from it
         (``given``, a known pose, is not used: Pose SLAM localises by itself)."""
         points = scan.points()
+        if any(self.config.laser_offset):                    # sensor frame → base frame
+            points = transform(self.laser_offset, points)
         normals = scan_normals(points, self.config.front_end.registration.normal_max_gap)
         tracked = self.front_end.track(points, odometry)
         self.degenerate_matches += tracked.match is not None and len(tracked.match.degenerate) > 0
