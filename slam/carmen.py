@@ -17,6 +17,17 @@ sometimes garbage) and chains the increments into a proper odometry trajectory:
 ``odometry[k+1] = odometry[k] ∘ pose[k]⁻¹ ∘ ODOM_last_before(k+1)``, so the relative motion between
 consecutive records' ``odometry`` is the wheel odometry's, as a SLAM front end needs.
 
+Both laser messages carry two poses: the laser's (FLASER ``x y theta``, ROBOTLASER1 ``laser_pose_*``)
+and the robot base's (FLASER ``odom_*``, ROBOTLASER1 ``robot_pose_*``). CARMEN's robot module writes
+the laser's as the robot's composed with the laser's mount (laser = robot ∘ offset), so each line
+states the mount: ``LaserRecord.laser_offset = robot⁻¹ ∘ laser``. When every line states the same
+one, the log's ``laser_offset`` is that mount (None when it is the identity: the log says nothing),
+and ``LaserRecord.pose`` is the robot's pose, the base pose the stack estimates. When the lines
+disagree, or their mount is farther than ``MAX_MOUNT_DISTANCE`` from the robot (a localised
+laser pose beside raw odometry), no mount can be read: ``laser_offset`` is
+None and ``pose`` is the laser's pose, as logged. The ``robot_frontlaser_offset`` PARAM is not
+applied: the GMapping-corrected Freiburg logs state -0.04 m there while their two poses are equal.
+
 A log with ODOM lines where no (non-repeat) ODOM line came between two scans says nothing about
 the motion between them: that record's ``odometry`` is None, not the stale value, which would
 claim the robot stood still (Örebro's corrected log has wheel increments before 18 of its 237
@@ -25,6 +36,7 @@ scans).
 
 from __future__ import annotations
 
+import dataclasses
 import gzip
 import math
 from dataclasses import dataclass
@@ -38,6 +50,9 @@ from slam.scan import LaserScan, fov_angles
 
 #: Readings at or beyond this are "no return" in CARMEN logs (they hold 81.83 or 81.91).
 DEFAULT_MAX_RANGE = 80.0
+#: A laser farther than this (m) from the robot's pose is no mount: the line's two poses come from
+#: different sources (a localised laser pose beside raw odometry).
+MAX_MOUNT_DISTANCE = 2.0
 
 
 class LogFormatError(ValueError):
@@ -57,15 +72,19 @@ class LaserRecord:
     Attributes:
         line: 1-based line number in the file.
         scan: the ranges, beam angles and ipc timestamp.
-        pose: the pose logged with the scan (odometry in raw logs, SLAM pose in corrected logs).
+        pose: the robot base's pose logged with the scan (odometry in raw logs, SLAM pose in
+            corrected logs); the laser's pose as logged when the log states no consistent mount.
         odometry: the raw wheel odometry at the scan; None when the log's ODOM lines say nothing
             about the motion since the previous scan.
+        laser_offset: the laser's pose in the robot's frame as the line states it (robot pose⁻¹
+            ∘ laser pose).
     """
 
     line: int
     scan: LaserScan
     pose: gtsam.Pose2
     odometry: gtsam.Pose2 | None
+    laser_offset: gtsam.Pose2 = gtsam.Pose2()
 
 
 class CarmenLog(LaserLog):
@@ -90,9 +109,25 @@ class CarmenLog(LaserLog):
         self.skipped: list[tuple[int, str]] = []
         self.has_odom_lines = False
         self.records: list[LaserRecord] = []
+        self._laser_poses: list[gtsam.Pose2] = []
         self._read(skip_malformed)
         if not self.records:
             raise LogFormatError(f"{self.path}: no laser messages (FLASER or ROBOTLASER1) found")
+        self._read_mount()
+
+    def _read_mount(self) -> None:
+        """The log's ``laser_offset`` from its lines' mounts, and each record's ``pose`` (see the
+        module docstring)."""
+        first = self.records[0].laser_offset
+        if (math.hypot(first.x(), first.y()) <= MAX_MOUNT_DISTANCE
+                and all(_same(r.laser_offset, first, 1e-3) for r in self.records)):
+            self.laser_offset = None if _same(first, gtsam.Pose2()) else first
+            self.laser_offset_source = "log" if self.laser_offset is not None else None
+        else:
+            self.laser_offset = self.laser_offset_source = None
+            self.records = [dataclasses.replace(r, pose=laser)
+                            for r, laser in zip(self.records, self._laser_poses)]
+        del self._laser_poses
 
     def _read(self, skip_malformed: bool) -> None:
         opener = gzip.open if self.path.suffix == ".gz" else open
@@ -112,7 +147,7 @@ class CarmenLog(LaserLog):
                         kind = fields[0]
                         if kind == "ODOM":
                             odom, _ = _parse_odom(fields)
-                            if after_laser and self.records and _same(odom, self.records[-1].pose):
+                            if after_laser and self.records and _same(odom, self._laser_poses[-1]):
                                 # GMapping's repeat of the corrected pose (its timestamp is meant to
                                 # be 0 but is sometimes garbage, e.g. 4.58e-72 in intel)
                                 rebase = odom
@@ -125,9 +160,9 @@ class CarmenLog(LaserLog):
                         after_laser = kind in ("FLASER", "ROBOTLASER1")
                         if after_laser:
                             parse = _parse_flaser if kind == "FLASER" else _parse_robotlaser
-                            scan, pose, odom = parse(fields, self.max_range)
+                            scan, laser, pose = parse(fields, self.max_range)
                             if not self.has_odom_lines:
-                                odometry = odom
+                                odometry = pose
                             else:
                                 if rebase is not None and chain is not None:
                                     chain = chain.compose(rebase.between(last_odom))
@@ -135,7 +170,8 @@ class CarmenLog(LaserLog):
                                     chain = last_odom
                                 odometry = chain if fresh or not self.records else None
                             fresh = False
-                            self.records.append(LaserRecord(number, scan, pose, odometry))
+                            self.records.append(LaserRecord(number, scan, pose, odometry, pose.between(laser)))
+                            self._laser_poses.append(laser)
                         elif kind == "PARAM" and len(fields) >= 3:
                             self.params[fields[1]] = fields[2]
                     except (ValueError, IndexError) as err:
@@ -202,33 +238,38 @@ def _parse_robotlaser(fields: list[str], max_range: float):
     # ROBOTLASER1 type start_angle fov angular_res max_range accuracy remission_mode n r_1..r_n
     #   m rem_1..rem_m laser_x laser_y laser_theta robot_x robot_y robot_theta tv rv
     #   forward_safety_dist side_safety_dist turn_axis ipc_timestamp ipc_hostname logger_ts
+    # (CARMEN's logger header; laser = robot ∘ the laser's mount)
     n = _count(fields, 8, "beam count")
     if n < 1:
         raise ValueError(f"ROBOTLASER1 beam count {n} is not positive")
     m = _count(fields, 9 + n, "remission count")
     rest = fields[10 + n + m:] if m >= 0 else []
-    if m < 0 or len(rest) != 15:
+    if m < 0 or len(rest) != 14:
         raise ValueError(f"ROBOTLASER1 line has {len(fields)} fields, inconsistent with "
-                         f"n = {n} ranges and m = {m} remissions")
+                         f"n = {n} ranges and m = {m} remissions (then 11 values, a timestamp, "
+                         "a host name and a logger timestamp)")
     start, _, resolution, sensor_max = _floats(fields[2:6], "ROBOTLASER1 header")
     ranges = _floats(fields[9:9 + n], "ROBOTLASER1 ranges")
-    tail = _floats(rest[:12], "ROBOTLASER1 poses")
-    timestamp = float(_floats(rest[12:13], "ROBOTLASER1 timestamp")[0])
+    tail = _floats(rest[:11], "ROBOTLASER1 poses")
+    timestamp = float(_floats(rest[11:12], "ROBOTLASER1 timestamp")[0])
     angles = start + resolution * np.arange(n)
     effective_max = min(max_range, sensor_max) if sensor_max > 0 else max_range
     scan = LaserScan(ranges, angles, effective_max, timestamp=timestamp)
     return scan, _pose(tail[0:3]), _pose(tail[3:6])
 
 
-def write_corrected_log(path: str | Path, log: CarmenLog, poses: list[gtsam.Pose2]) -> None:
-    """Write ``log``'s laser lines with both pose triples replaced by ``poses`` (one per record),
-    atomically: the "corrected log" the Freiburg metricEvaluator reads (it takes the second
-    triple of FLASER and the robot pose of ROBOTLASER1). ROBOTLASER1's laser pose is set to the
-    same pose (the laser offset is not modelled). Ranges and timestamps are copied verbatim."""
+def write_corrected_log(path: str | Path, log: CarmenLog, poses: list[gtsam.Pose2],
+                        laser_offset: gtsam.Pose2 | None = None) -> None:
+    """Write ``log``'s laser lines with their pose triples replaced, atomically: the robot's (FLASER's
+    second triple, ROBOTLASER1's robot pose) by ``poses`` (the base's, one per record), the laser's
+    by ``poses`` ∘ ``laser_offset`` (by default the log's own, else the identity). It is the
+    "corrected log" the Freiburg metricEvaluator reads (it takes the second triple of FLASER and
+    the robot pose of ROBOTLASER1). Ranges and timestamps are copied verbatim."""
     from slam.atomic import write_text_atomic
 
     if len(poses) != len(log):
         raise ValueError(f"{path}: {len(poses)} poses for {len(log)} laser records of {log.path}")
+    mount = laser_offset or log.laser_offset or gtsam.Pose2()
     by_line = {r.line: p for r, p in zip(log.records, poses)}
     opener = gzip.open if log.path.suffix == ".gz" else open
     rows = [f"# {log.path.name} with poses from gpexplore Pose SLAM"]
@@ -238,14 +279,18 @@ def write_corrected_log(path: str | Path, log: CarmenLog, poses: list[gtsam.Pose
             if pose is None:
                 continue
             fields = text.split()
-            triple = [f"{pose.x():.6f}", f"{pose.y():.6f}", f"{pose.theta():.6f}"]
+            both = _triple(pose.compose(mount)) + _triple(pose)
             if fields[0] == "FLASER":
                 n = int(fields[1])
-                fields[2 + n:2 + n + 6] = triple + triple
+                fields[2 + n:2 + n + 6] = both
             else:
                 n = int(fields[8])
                 m = int(fields[9 + n])
                 start = 10 + n + m
-                fields[start:start + 6] = triple + triple
+                fields[start:start + 6] = both
             rows.append(" ".join(fields))
     write_text_atomic(path, "".join(r + "\n" for r in rows))
+
+
+def _triple(pose: gtsam.Pose2) -> list[str]:
+    return [f"{pose.x():.6f}", f"{pose.y():.6f}", f"{pose.theta():.6f}"]

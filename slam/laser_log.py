@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import gtsam
 import numpy as np
 
 from slam.poses import pose_array
@@ -13,10 +17,18 @@ CORRECTED_POSE_TOLERANCE = (0.25, 0.1)
 
 
 class LaserLog:
-    """A sequence of records, each with ``.scan`` (a LaserScan) and ``.pose`` (the odometry at
-    it); subclasses read a file format and fill ``records``."""
+    """A sequence of records, each with ``.scan`` (a LaserScan) and ``.pose`` (the robot base's
+    pose at it); subclasses read a file format and fill ``records``.
+
+    Attributes:
+        laser_offset: the laser's pose in the base frame as the log states it (a CARMEN log's
+            laser and robot poses, a bag's /tf_static), or None when it states none.
+        laser_offset_source: where ``laser_offset`` was read ("log", "/tf_static"), or None.
+    """
 
     records: list
+    laser_offset: gtsam.Pose2 | None = None
+    laser_offset_source: str | None = None
 
     def __len__(self) -> int:
         return len(self.records)
@@ -53,6 +65,44 @@ class LaserLog:
         if len(stamps) < 2 or np.mean(np.diff(stamps) > 0) < 0.9:
             return None
         return float(stamps[-1] - stamps[0])
+
+
+@dataclass(frozen=True)
+class LaserMount:
+    """The laser's pose in the base frame that a replay of a log uses, and where it came from:
+    the log's own statement ("log", "/tf_static") or the configuration ("configuration").
+    ``warning`` says when the log and a non-zero configured offset disagree (the log wins)."""
+
+    pose: gtsam.Pose2
+    source: str
+    warning: str | None = None
+
+    @property
+    def offset(self) -> list[float]:
+        """x (m), y (m), θ (rad): the value of ``SlamConfig.laser_offset``."""
+        return [self.pose.x(), self.pose.y(), self.pose.theta()]
+
+    def metrics(self) -> dict:
+        """What a replay's metrics.json says of the mount."""
+        return {"laser_offset": self.offset, "laser_offset_source": self.source}
+
+
+def laser_mount(log: LaserLog, configured: Sequence[float]) -> LaserMount:
+    """The mount to replay ``log`` with: the log's ``laser_offset`` when it states one, else the
+    ``configured`` offset (x m, y m, θ rad; ``SlamConfig.laser_offset``)."""
+    config = gtsam.Pose2(*configured)
+    if log.laser_offset is None:
+        return LaserMount(config, "configuration")
+    warning = None
+    stated = log.laser_offset
+    if any(configured) and not config.equals(stated, 1e-3):
+        warning = (f"{log.path}: the configured laser_offset ({_xyt(config)}) differs from the one "
+                   f"the log states in {log.laser_offset_source} ({_xyt(stated)}); using the log's")
+    return LaserMount(stated, log.laser_offset_source or "log", warning)
+
+
+def _xyt(pose: gtsam.Pose2) -> str:
+    return f"{pose.x():.3f} m, {pose.y():.3f} m, {pose.theta():.3f} rad"
 
 
 def _relative(origin: np.ndarray, xyt: np.ndarray) -> np.ndarray:

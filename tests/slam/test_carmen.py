@@ -157,3 +157,60 @@ def test_corrected_poses_are_told_from_raw_odometry(tmp_path):
                                              ("belgioioso-corrected.log.gz", True)])
 def test_real_logs_corrected_or_raw(shared_data, name, corrected):
     assert CarmenLog(shared_data / "logs" / name).has_corrected_poses() == corrected
+
+
+def robotlaser(ranges, laser, robot, stamp):
+    """A ROBOTLASER1 line: 180° from -90°, 1° steps, no remissions."""
+    r = " ".join(f"{v:.2f}" for v in ranges)
+    poses = " ".join(str(v) for v in (*laser, *robot))
+    return (f"ROBOTLASER1 0 {-math.pi / 2} {math.pi} {math.pi / 180} 81.9 0.01 0 {len(ranges)} {r} 0 "
+            f"{poses} 0.1 0.0 0.5 0.3 0.0 {stamp} host {stamp}\n")
+
+
+MOUNT = gtsam.Pose2(0.3, 0.1, 0.2)
+
+
+@pytest.mark.parametrize("kind", ["ROBOTLASER1", "FLASER"])
+def test_a_lines_laser_offset_is_read_and_the_pose_is_the_robots(tmp_path, kind):
+    robots = [gtsam.Pose2(5, -2, 0.4), gtsam.Pose2(6, -1.5, 0.9)]
+    line = robotlaser if kind == "ROBOTLASER1" else flaser
+    path = tmp_path / "mounted.clf"
+    path.write_text("".join(line([2.0] * 181, pose_triple(r.compose(MOUNT)), pose_triple(r), 1.0 + k)
+                            for k, r in enumerate(robots)))
+    log = CarmenLog(path)
+    assert log.laser_offset.equals(MOUNT, 1e-6) and log.laser_offset_source == "log"
+    for record, robot in zip(log, robots):
+        assert record.laser_offset.equals(MOUNT, 1e-6)
+        assert record.pose.equals(robot, 1e-6)           # the base's pose, not the laser's
+        assert record.odometry.equals(robot, 1e-6)
+    write_corrected_log(tmp_path / "out.clf", log, robots)
+    again = CarmenLog(tmp_path / "out.clf")              # the laser pose is written at base ∘ mount
+    assert again.laser_offset.equals(MOUNT, 1e-5)
+    assert all(a.pose.equals(r, 1e-5) for a, r in zip(again, robots))
+
+
+def test_a_log_whose_two_poses_agree_states_no_offset(shared_data, tmp_path):
+    from slam.laser_log import laser_mount
+
+    log = CarmenLog(shared_data / "logs" / "mit-csail.clf")
+    assert log.laser_offset is None
+    assert all(r.pose.equals(r.odometry, 0) for r in log)
+    mount = laser_mount(log, [0.3, 0.1, 0.2])            # the configured one applies
+    assert mount.source == "configuration" and mount.pose.equals(MOUNT, 1e-12)
+
+
+def test_a_configured_offset_that_the_log_contradicts_is_warned_about(tmp_path):
+    from slam.laser_log import laser_mount
+
+    path = tmp_path / "mounted.clf"
+    robot = gtsam.Pose2(1, 1, 0)
+    path.write_text(robotlaser([2.0] * 181, pose_triple(robot.compose(MOUNT)), pose_triple(robot), 1.0))
+    log = CarmenLog(path)
+    assert laser_mount(log, [0, 0, 0]).warning is None
+    mount = laser_mount(log, [0.2, 0.0, 0.0])
+    assert mount.pose.equals(MOUNT, 1e-6) and mount.source == "log"
+    assert "mounted.clf" in mount.warning and "0.200 m" in mount.warning
+
+
+def pose_triple(pose: gtsam.Pose2) -> tuple[float, float, float]:
+    return pose.x(), pose.y(), pose.theta()
