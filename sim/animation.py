@@ -7,6 +7,7 @@ trajectories are not copied per frame, they are the run's own, cut at the frame'
 
 from __future__ import annotations
 
+import shutil
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -92,9 +93,25 @@ class FrameRecorder:
                      stack.loop_segments().astype(np.float32))
 
 
+def ffmpeg_path() -> str | None:
+    """The ffmpeg binary to write MP4 with: ``ffmpeg`` on PATH, else the one the imageio-ffmpeg
+    package ships (a wheel from the package index, the test extra's), else None."""
+    found = shutil.which("ffmpeg")
+    if found is not None:
+        return found
+    try:
+        import imageio_ffmpeg
+    except ImportError:
+        return None
+    try:
+        return imageio_ffmpeg.get_ffmpeg_exe()
+    except RuntimeError:                     # a platform its wheel has no binary for
+        return None
+
+
 def write_animation(folder: str | Path, result, fps: int = FPS, progress: bool = False) -> list[Path]:
-    """animation.gif (Pillow) of ``result.frames``, and animation.mp4 when ffmpeg is on PATH
-    (else a warning says it was skipped); returns the files written. ``progress`` shows a
+    """animation.gif (Pillow) of ``result.frames``, and animation.mp4 when there is an ffmpeg
+    (``ffmpeg_path``: on PATH or imageio-ffmpeg's; else a warning says it was skipped); returns the files written. ``progress`` shows a
     progress bar over the frames drawn.
 
     Each frame: the true world faded, the map (unobserved cells transparent), the frontier
@@ -150,23 +167,25 @@ def write_animation(folder: str | Path, result, fps: int = FPS, progress: bool =
         ax.set_title(f"{m['world']} ({m['method']}, {m['poses']}): step {f.step}, "
                      f"{len(f.loops)} loop closures", fontsize=9)
 
-    writers = {"animation.gif": PillowWriter(fps=fps)}
-    if FFMpegWriter.isAvailable():
-        writers["animation.mp4"] = FFMpegWriter(fps=fps)
-    else:
-        warnings.warn("ffmpeg is not on PATH: animation.mp4 skipped, animation.gif only "
-                      "(install ffmpeg for the MP4)", stacklevel=2)
-    written = []
-    bar = tqdm(total=len(frames) * len(writers), desc="animation", unit="frame", disable=not progress)
-    for name, writer in writers.items():
-        bar.set_postfix_str(name)
-        with replaced_atomically(folder / name) as tmp:
-            with writer.saving(fig, tmp, dpi=80):
-                for f in frames:
-                    draw(f)
-                    writer.grab_frame()
-                    bar.update()
-        written.append(folder / name)
-    bar.close()
+    ffmpeg = ffmpeg_path()
+    with matplotlib.rc_context({"animation.ffmpeg_path": ffmpeg or "ffmpeg"}):
+        writers = {"animation.gif": PillowWriter(fps=fps)}
+        if FFMpegWriter.isAvailable():
+            writers["animation.mp4"] = FFMpegWriter(fps=fps)
+        else:
+            warnings.warn("ffmpeg is not on PATH: animation.mp4 skipped, animation.gif only "
+                          "(install ffmpeg, or pip install imageio-ffmpeg, for the MP4)", stacklevel=2)
+        written = []
+        bar = tqdm(total=len(frames) * len(writers), desc="animation", unit="frame", disable=not progress)
+        for name, writer in writers.items():
+            bar.set_postfix_str(name)
+            with replaced_atomically(folder / name) as tmp:
+                with writer.saving(fig, tmp, dpi=80):
+                    for f in frames:
+                        draw(f)
+                        writer.grab_frame()
+                        bar.update()
+            written.append(folder / name)
+        bar.close()
     plt.close(fig)
     return written

@@ -100,12 +100,26 @@ def test_frames_are_reproducible_and_do_not_change_the_run(run):
     assert m == p
 
 
-@pytest.mark.skipif(shutil.which("ffmpeg") is None, reason="ffmpeg is not on PATH")
-def test_mp4_when_ffmpeg_is_on_path(run, tmp_path):
+@pytest.mark.skipif(animation.ffmpeg_path() is None, reason="no ffmpeg: on PATH nor imageio-ffmpeg's")
+def test_mp4_when_there_is_an_ffmpeg(run, tmp_path):
     written = write_animation(tmp_path, run)
     assert tmp_path / "animation.mp4" in written
     head = (tmp_path / "animation.mp4").read_bytes()[:12]
     assert head[4:8] == b"ftyp"     # an MP4 (ISO media) file
+
+
+def test_without_ffmpeg_on_path_imageio_ffmpegs_binary_writes_the_mp4(run, tmp_path, monkeypatch):
+    """The test extra's imageio-ffmpeg gives CI an ffmpeg from the package index."""
+    imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
+    which = shutil.which
+    monkeypatch.setattr(shutil, "which", lambda name, *args, **kw: None if name == "ffmpeg" else which(name, *args, **kw))
+    assert animation.ffmpeg_path() == imageio_ffmpeg.get_ffmpeg_exe()
+    written = write_animation(tmp_path, run)
+    assert tmp_path / "animation.mp4" in written
+    assert (tmp_path / "animation.mp4").read_bytes()[4:8] == b"ftyp"
+    import matplotlib
+
+    assert matplotlib.rcParams["animation.ffmpeg_path"] == "ffmpeg"       # set for the writing only
 
 
 def test_large_maps_are_recorded_strided_over_the_same_extent(run, monkeypatch):
