@@ -71,11 +71,13 @@ class LaserLog:
 class LaserMount:
     """The laser's pose in the base frame that a replay of a log uses, and where it came from:
     the log's own statement ("log", "/tf_static") or the configuration ("configuration").
-    ``warning`` says when the log and a non-zero configured offset disagree (the log wins)."""
+    ``warning`` says when the log and a non-zero configured offset disagree (the log wins);
+    ``note``, why a bag states none (its ``laser_offset_note``)."""
 
     pose: gtsam.Pose2
     source: str
     warning: str | None = None
+    note: str | None = None
 
     @property
     def offset(self) -> list[float]:
@@ -84,7 +86,8 @@ class LaserMount:
 
     def metrics(self) -> dict:
         """What a replay's metrics.json says of the mount."""
-        return {"laser_offset": self.offset, "laser_offset_source": self.source}
+        return {"laser_offset": self.offset, "laser_offset_source": self.source,
+                **({"laser_offset_note": self.note} if self.note else {})}
 
 
 def laser_mount(log: LaserLog, configured: Sequence[float]) -> LaserMount:
@@ -92,7 +95,7 @@ def laser_mount(log: LaserLog, configured: Sequence[float]) -> LaserMount:
     ``configured`` offset (x m, y m, θ rad; ``SlamConfig.laser_offset``)."""
     config = gtsam.Pose2(*configured)
     if log.laser_offset is None:
-        return LaserMount(config, "configuration")
+        return LaserMount(config, "configuration", note=getattr(log, "laser_offset_note", None))
     warning = None
     stated = log.laser_offset
     if any(configured) and not config.equals(stated, 1e-3):

@@ -7,8 +7,12 @@ or a single ``.db3``/``.mcap`` file) are read with the pure-Python ``rosbags`` p
 Each scan gets the odometry pose at its header stamp, interpolated linearly (x, y and yaw along
 the shorter arc) between the two odometry messages around it (by their header stamps). Scans
 stamped before the first or after the last odometry message are dropped and listed in
-``skipped``. The laser is taken to sit at the odometry's child frame (``base_link``): the laser
-offset is not modelled, as in CARMEN logs.
+``skipped``. The poses are the robot base's (the odometry's child frame, ``base_link``); the laser
+sits at the pose of the scans' frame (their ``header.frame_id``) in that frame. A bag with a
+``/tf_static`` topic states it: the static transforms chained from the child frame to the scans'
+frame, projected onto the plane (x, y, yaw), are the bag's ``laser_offset``. Without them (or
+without a chain between the two frames) the bag states none and the configured offset applies;
+``laser_offset_note`` says why.
 
 Ranges follow REP 117 and the CARMEN reader's conventions: a reading at or beyond the effective
 maximum range (the message's ``range_max``, or the ``max_range`` argument if smaller) or +inf is
@@ -31,6 +35,7 @@ from slam.scan import LaserScan
 
 LASER_SCAN = "sensor_msgs/msg/LaserScan"
 ODOMETRY = "nav_msgs/msg/Odometry"
+TF_STATIC = "/tf_static"
 #: The topic chosen when a bag has several of a type.
 PREFERRED_TOPIC = {LASER_SCAN: "/scan", ODOMETRY: "/odom"}
 BAG_SUFFIXES = (".bag", ".db3", ".mcap")
@@ -92,14 +97,40 @@ class RosBag(LaserLog):
             raise BagError(f"{self.path}: reading ROS bags needs the rosbags package: "
                            "pip install gpexplore[ros]") from None
         self.skipped: list[tuple[int, str]] = []
+        self.base_frame = self.laser_frame = ""
         try:
             with AnyReader([self.path]) as reader:
                 self.scan_topic = self._topic(reader, LASER_SCAN, scan_topic, "--scan-topic")
                 self.odom_topic = self._topic(reader, ODOMETRY, odom_topic, "--odom-topic")
                 stamps, poses = self._odometry(reader)
                 self.records = self._scans(reader, stamps, poses)
+                self._read_mount(reader)
         except (AnyReaderError, OSError) as err:
             raise BagError(f"{self.path}: cannot read bag: {err}") from None
+
+    def _read_mount(self, reader) -> None:
+        """``laser_offset``: the scans' frame in the odometry's child frame from ``/tf_static``
+        (see the module docstring), or None with ``laser_offset_note`` saying why."""
+        base, laser = self.base_frame, self.laser_frame
+        self.laser_offset_note = None
+        if not base or not laser:
+            self.laser_offset_note = "the odometry's child frame or the scans' frame is not named"
+        elif base == laser:
+            self.laser_offset_note = f"the scans are in the odometry's child frame '{base}'"
+        elif TF_STATIC not in reader.topics:
+            self.laser_offset_note = f"no {TF_STATIC} topic"
+        else:
+            edges = {}                                        # child → (parent, pose in parent)
+            for message in self._messages(reader, TF_STATIC):
+                for t in message.transforms:
+                    r, q = t.transform.translation, t.transform.rotation
+                    edges[_frame(t.child_frame_id)] = (_frame(t.header.frame_id),
+                                                       gtsam.Pose2(r.x, r.y, _yaw(q)))
+            offset = _between_frames(edges, base, laser)
+            if offset is None:
+                self.laser_offset_note = f"{TF_STATIC} has no chain of transforms from '{base}' to '{laser}'"
+            else:
+                self.laser_offset, self.laser_offset_source = offset, TF_STATIC
 
     def _topic(self, reader, msgtype: str, wanted: str | None, option: str) -> str:
         """The topic of ``msgtype`` to read: ``wanted``, the only one, or the preferred name."""
@@ -132,8 +163,11 @@ class RosBag(LaserLog):
 
     def _odometry(self, reader) -> tuple[np.ndarray, np.ndarray]:
         """(n,) header stamps (s), sorted, and (n, 3) x, y, unwrapped yaw of the odometry."""
-        rows = [(_seconds(m.header.stamp), m.pose.pose.position.x, m.pose.pose.position.y,
-                 _yaw(m.pose.pose.orientation)) for m in self._messages(reader, self.odom_topic)]
+        rows = []
+        for m in self._messages(reader, self.odom_topic):
+            rows.append((_seconds(m.header.stamp), m.pose.pose.position.x, m.pose.pose.position.y,
+                         _yaw(m.pose.pose.orientation)))
+            self.base_frame = self.base_frame or _frame(m.child_frame_id)
         if not rows:
             raise BagError(f"{self.path}: no messages on the odometry topic '{self.odom_topic}'")
         table = np.array(sorted(rows))
@@ -145,6 +179,7 @@ class RosBag(LaserLog):
                        for k, m in enumerate(self._messages(reader, self.scan_topic)))
         if not scans:
             raise BagError(f"{self.path}: no messages on the scan topic '{self.scan_topic}'")
+        self.laser_frame = _frame(scans[0][2].header.frame_id)
         at = np.array([stamp for stamp, _, _ in scans])
         xyt = np.column_stack([np.interp(at, stamps, poses[:, i]) for i in range(3)])
         records = []
@@ -175,6 +210,30 @@ class RosBag(LaserLog):
 def _short(msgtype: str) -> str:
     """``sensor_msgs/LaserScan`` for ``sensor_msgs/msg/LaserScan`` (rosbags' ROS 2 style names)."""
     return msgtype.replace("/msg/", "/")
+
+
+def _frame(name: str) -> str:
+    """A tf frame name without ROS 1's leading slash."""
+    return name.lstrip("/")
+
+
+def _between_frames(edges: dict, base: str, laser: str) -> gtsam.Pose2 | None:
+    """The pose of frame ``laser`` in frame ``base`` through the tree ``edges`` (child → (parent,
+    pose in parent)); None when they share no root."""
+    def to_root(frame):
+        """{ancestor: pose of ``frame`` in it}, from ``frame`` itself up to its root."""
+        chain, pose = {frame: gtsam.Pose2()}, gtsam.Pose2()
+        while frame in edges and len(chain) <= len(edges):
+            frame, step = edges[frame]
+            pose = step.compose(pose)
+            chain[frame] = pose
+        return chain
+
+    from_base, from_laser = to_root(base), to_root(laser)
+    common = next((f for f in from_laser if f in from_base), None)
+    if common is None:
+        return None
+    return from_base[common].between(from_laser[common])
 
 
 def _seconds(stamp) -> float:

@@ -23,24 +23,40 @@ T0 = 1_700_000_000     # the bag clock at the tour's start, s
 STORAGES = ["ros1", "sqlite3", "mcap", "mcap-file"]
 
 
-def write_bag(path, storage, topics, range_min=0.0):
+def write_bag(path, storage, topics, range_min=0.0, scan_frame="base_link", static=()):
     """A bag at ``path`` in ``storage`` (ros1: a .bag; sqlite3, mcap: a ROS 2 bag directory;
     mcap-file: the .mcap inside one) holding ``topics``: name → LaserScans (stamped by their
-    ``timestamp``) or (stamp, Pose2) odometry. Returns the path to read."""
+    ``timestamp``, in ``scan_frame``) or (stamp, Pose2) odometry (of ``base_link``), and
+    ``static``: (parent, child, Pose2) transforms on /tf_static. Returns the path to read."""
     ros1 = storage == "ros1"
     store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    if "tf2_msgs/msg/TFMessage" not in store.types:
+        from rosbags.typesys import get_types_from_msg
+        store.register(get_types_from_msg("geometry_msgs/TransformStamped[] transforms", "tf2_msgs/msg/TFMessage"))
     t = store.types
 
-    def header(stamp):
+    def header(stamp, frame_id="base_link"):
         sec, nanosec = divmod(round(stamp * 1e9), 10**9)
         return t["std_msgs/msg/Header"](**({"seq": 0} if ros1 else {}),
                                         stamp=t["builtin_interfaces/msg/Time"](sec=sec, nanosec=nanosec),
-                                        frame_id="base_link")
+                                        frame_id=frame_id)
+
+    def quaternion(yaw):
+        return t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
+
+    def static_message(stamp):
+        return stamp, "tf2_msgs/msg/TFMessage", t["tf2_msgs/msg/TFMessage"](transforms=[
+            t["geometry_msgs/msg/TransformStamped"](
+                header=header(stamp, parent), child_frame_id=child,
+                transform=t["geometry_msgs/msg/Transform"](
+                    translation=t["geometry_msgs/msg/Vector3"](x=p.x(), y=p.y(), z=0.2),
+                    rotation=quaternion(p.theta())))
+            for parent, child, p in static])
 
     def scan_message(s: LaserScan):
         step = float(s.angles[1] - s.angles[0])
         return s.timestamp, "sensor_msgs/msg/LaserScan", t["sensor_msgs/msg/LaserScan"](
-            header=header(s.timestamp), angle_min=float(s.angles[0]), angle_max=float(s.angles[-1]),
+            header=header(s.timestamp, scan_frame), angle_min=float(s.angles[0]), angle_max=float(s.angles[-1]),
             angle_increment=step, time_increment=0.0, scan_time=0.1, range_min=range_min,
             range_max=s.max_range, ranges=s.ranges.astype(np.float32), intensities=np.zeros(0, np.float32))
 
@@ -59,6 +75,8 @@ def write_bag(path, storage, topics, range_min=0.0):
 
     messages = sorted(((topic, *(scan_message(m) if isinstance(m, LaserScan) else odometry_message(*m)))
                        for topic, items in topics.items() for m in items), key=lambda m: m[1])
+    if static:
+        messages.insert(0, ("/tf_static", *static_message(messages[0][1])))
     if ros1:
         writer = Writer1(path)
     else:
@@ -267,3 +285,40 @@ def test_cli_errors_on_bad_bags_exit_2_naming_the_file(tmp_path, monkeypatch):
     result = runner.invoke(app, ["replay", str(path), "--out", str(tmp_path / "o")])
     assert result.exit_code == 2 and "pip install gpexplore[ros]" in one_line(result.output)
     assert not (tmp_path / "o").exists()
+
+
+MOUNT = gtsam.Pose2(0.3, 0.1, 0.2)      # the laser on the base: 0.3 m ahead, 0.1 m left, 0.2 rad
+
+
+@pytest.mark.parametrize("storage", ["ros1", "mcap"])
+def test_the_laser_offset_is_read_from_tf_static_through_a_chain_of_frames(tmp_path, storage):
+    from slam.laser_log import laser_mount
+
+    # base_footprint ← base_link ← laser, and a sibling frame; the odometry's child is base_link
+    to_base_link = gtsam.Pose2(0.05, 0.0, 0.0)
+    static = [("base_footprint", "base_link", to_base_link),
+              ("/base_footprint", "laser", to_base_link.compose(MOUNT)),
+              ("base_link", "camera", gtsam.Pose2(0.2, 0.0, 1.0))]
+    path = write_bag(bag_path(tmp_path, storage, "mounted"), storage,
+                     {"/scan": small_scans(), "/odom": small_odometry()}, scan_frame="laser", static=static)
+    bag = RosBag(path)
+    assert (bag.base_frame, bag.laser_frame) == ("base_link", "laser")
+    assert bag.laser_offset.equals(MOUNT, 1e-6) and bag.laser_offset_source == "/tf_static"
+    mount = laser_mount(bag, [0.0, 0.0, 0.0])
+    assert mount.source == "/tf_static" and mount.warning is None
+    assert mount.metrics()["laser_offset"] == pytest.approx([0.3, 0.1, 0.2])
+
+
+def test_without_tf_static_the_configured_offset_applies_and_the_metrics_say_so(tmp_path):
+    from slam.laser_log import laser_mount
+
+    path = write_bag(tmp_path / "bare", "mcap", {"/scan": small_scans(), "/odom": small_odometry()},
+                     scan_frame="laser")
+    bag = RosBag(path)
+    assert bag.laser_offset is None and bag.laser_offset_note == "no /tf_static topic"
+    metrics = laser_mount(bag, [0.3, 0.1, 0.2]).metrics()
+    assert metrics == {"laser_offset": [0.3, 0.1, 0.2], "laser_offset_source": "configuration",
+                       "laser_offset_note": "no /tf_static topic"}
+    unrelated = write_bag(tmp_path / "unrelated", "mcap", {"/scan": small_scans(), "/odom": small_odometry()},
+                          scan_frame="laser", static=[("base_link", "camera", MOUNT)])
+    assert "no chain of transforms from 'base_link' to 'laser'" in RosBag(unrelated).laser_offset_note
