@@ -21,9 +21,11 @@ from sim.cli_options import (Builtin, Config, Engine, Log, LogPoses, MaxSteps, M
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Autonomous exploration on continuous Gaussian-process frontier maps.")
-console = Console()
-#: Warnings go to standard error, so that piped results stay clean.
-err_console = Console(stderr=True)
+#: soft_wrap: a line is never broken at the console's width (80 columns when piped), so
+#: machine-readable lines stay whole.
+console = Console(soft_wrap=True)
+#: Warnings and status go to standard error, so that piped results stay clean.
+err_console = Console(stderr=True, soft_wrap=True)
 
 
 def warn(message: str) -> None:
@@ -74,6 +76,15 @@ def _claim_out(out: Path, command: str, overwrite: bool) -> Path:
         return claim_run_folder(out, command, overwrite)
     except (OutputError, OSError) as err:
         raise typer.BadParameter(str(err), param_hint="'--out'") from None
+
+
+def _results_line(out: Path) -> str:
+    """``results in OUT/: a, b, figures/c``: the files the run wrote, its own folder's first."""
+    from sim.results import RUN_MARKER
+
+    files = sorted((p.relative_to(out) for p in out.rglob("*") if p.is_file() and p.name != RUN_MARKER),
+                   key=lambda p: (len(p.parts), str(p)))
+    return f"results in {out}/: {', '.join(map(str, files))}"
 
 
 def _check_file(path: Optional[Path], option: str) -> None:
@@ -160,7 +171,7 @@ def demo(
     console.print(f"{m['steps']} scans, {m['travel_distance_m']:.1f} m in {m['sim_time_s']:.0f} s of robot "
                   f"time ({m['wall_time_s']:.1f} s wall), {m['collisions']} collisions, odometry drift "
                   f"{m['final_odometry_drift_m']:.2f} m at the end")
-    console.print(f"results in {out}/: metrics.json, ground_truth.tum, odometry.tum, figures/tour.png", markup=False)
+    console.print(_results_line(out), markup=False)
 
 
 @app.command("map")
@@ -222,9 +233,7 @@ def map_(
                   f"{m['update_ms_median']:.1f} ms, p95 {m['update_ms_p95']:.1f} ms); AUC {m['auc']:.4f} "
                   f"read continuously (bilinear), {m['auc_cell']:.4f} read per cell "
                   f"({m['holdout']['protocol']}); entropy {m['entropy_nats_0.2m']:.0f} nats")
-    slam_products = ", trajectory.tum, graph.g2o" if run.replay is not None else ""
-    console.print(f"results in {out}/: com.npz, map.pgm, map.yaml, metrics.json, config.toml, "
-                  f"figures/com.png{slam_products}", markup=False)
+    console.print(_results_line(out), markup=False)
 
 
 @app.command()
@@ -245,7 +254,6 @@ def replay(
     config.toml (the configuration used) and, for a CARMEN log, corrected.clf."""
     from sim.config_file import CONFIG_NAME, write_config
     from sim.logs import replay_log
-    from slam.carmen import CarmenLog
     from slam.evaluation import RelationsError, check_time_base, read_relations
     from slam.replay import write_replay
 
@@ -274,8 +282,7 @@ def replay(
         if isinstance(e, dict) and e["n"]:
             console.print(f"relation error {name} (n={e['n']}): {e['trans_mean_m']:.4f} ± {e['trans_std_m']:.4f} m, "
                           f"{e['rot_mean_deg']:.3f} ± {e['rot_std_deg']:.3f} deg")
-    corrected = "corrected.clf, " if isinstance(records, CarmenLog) else ""
-    console.print(f"results in {out}/: trajectory.tum, graph.g2o, {corrected}metrics.json, config.toml, trajectory.png", markup=False)
+    console.print(_results_line(out), markup=False)
 
 
 def _open_log(path: Path, max_range: float = 80.0, skip_malformed: bool = False,
@@ -328,7 +335,7 @@ def posegraph(
     """
     import time
 
-    from slam.g2o import G2oFormatError, chi2, optimize_g2o, read_g2o, write_g2o
+    from slam.g2o import G2oFormatError, chi2, optimize, read_g2o, refine_g2o, write_g2o
 
     _check_file(out, "--out")
     try:
@@ -340,8 +347,15 @@ def posegraph(
         warn(message)
     rotated = not frame_i_residual
     before = chi2(g, g.poses, rotated=rotated)
+    # optimize_g2o's two stages, each one call that reports nothing until it returns: say what runs
+    err_console.print(f"optimising {len(g.poses)} poses, {len(g.edges)} edges: GTSAM {method.value} (QR) ...",
+                      markup=False)
     tic = time.perf_counter()
-    poses, iterations = optimize_g2o(g, method=method.value, rotated=rotated)
+    values, iterations = optimize(g, method=method.value)
+    err_console.print(f"GTSAM {method.value}: {iterations} iterations in {time.perf_counter() - tic:.1f} s; "
+                      "Levenberg–Marquardt on g2o's exact chi2 ...", markup=False)
+    poses, more = refine_g2o(g, {k: values.atPose2(k) for k in g.poses}, rotated=rotated)
+    iterations += more
     wall = time.perf_counter() - tic
     after = chi2(g, poses, rotated=rotated)
     name = "chi2 (g2o EdgeSE2)" if rotated else "chi2 (translation residual in frame i)"
@@ -394,10 +408,9 @@ def explore(
                                           "(pip install gpexplore[viz])"))] = None,
 ):
     """Explore a world with SLAM, the map and the frontier explorer in the loop; write results and
-    config.toml, the configuration used (--config config.toml with the same seed runs it again)."""
-    from sim.episode import run_episode
-    from sim.results import write_episode
-    from sim.world_io import load_world, start_area, start_pose
+    config.toml, the configuration used (gpexplore rerun OUT runs it again)."""
+    from sim.world_io import load_world, start_pose
+    from sim.worlds import BUILTIN_WORLDS
 
     _check_out(out, "explore", overwrite)
     cfg = _config_for(episode_config(config), method, poses, max_steps)
@@ -406,6 +419,20 @@ def explore(
     with _world_errors():
         w = load_world(world, size=size, resolution=resolution)
         pose = start_pose(world, w, cfg.robot.radius, start)
+    spec = {"world": world if world in BUILTIN_WORLDS else str(Path(world).resolve()),
+            "size": list(size) if size else None, "resolution": resolution}
+    _explore(w, pose, cfg, seed, out, overwrite, spec, rerun)
+
+
+def _explore(w, pose, cfg, seed: int, out: Path, overwrite: bool, world_spec: dict,
+             rerun: Optional[Path] = None) -> None:
+    """Explore ``w`` from ``pose``, write the run into ``out`` with metrics.json's ``world_spec``
+    (what loads the world again: ``world`` as given to --world, a file's absolute path, and
+    ``size``, ``resolution``), and report it."""
+    from sim.episode import run_episode
+    from sim.results import write_episode
+    from sim.world_io import start_area
+
     area = start_area(w, (pose.x(), pose.y()), cfg.robot.radius)
     if area.enclosed:
         warn(area.warning())
@@ -419,17 +446,97 @@ def explore(
     result = run_episode(w, pose, cfg, seed=seed, progress=True, watch=watch)
     if watch:
         watch.close()
+    result.metrics["world_spec"] = world_spec
     write_episode(out, result, progress=True)
     m = result.metrics
     console.print(f"{m['termination_reason']}: {m['travel_distance_m']:.1f} m in {m['sim_time_s']:.0f} s of "
                   f"robot time ({m['wall_time_s']:.1f} s wall), coverage {100 * m['coverage']:.1f} %, "
                   f"AUC {m['auc']:.3f}, ATE {m['ate_rmse_m']:.3f} m, {m['loop_closures']} loop closures, "
                   f"{m['collisions']} collisions")
-    console.print(f"results in {out}/: metrics.json, config.toml, trajectory.tum, ground_truth.tum, "
-                  f"graph.g2o, map.pgm, map.yaml{', com.npz' if cfg.stack.explorer.method == 'gp' else ''}, "
-                  "figures/", markup=False)
+    console.print(_results_line(out), markup=False)
     if rerun:
         console.print(f"Rerun recording: {rerun} (open it with: rerun {rerun})", markup=False)
+
+
+RunDir = Annotated[Path, typer.Argument(
+    exists=True, file_okay=False, metavar="RUN_DIR", help="an explore run's output folder")]
+
+
+def _run_metrics(run: Path) -> dict:
+    """RUN_DIR's metrics.json; a missing or unreadable one is a usage error naming it."""
+    import json
+
+    try:
+        metrics = json.loads((run / "metrics.json").read_text())
+        if not isinstance(metrics, dict):
+            raise ValueError("not a JSON object")
+    except (OSError, ValueError) as err:
+        raise typer.BadParameter(f"{run / 'metrics.json'}: {err}", param_hint="'RUN_DIR'") from None
+    return metrics
+
+
+@app.command("rerun")
+def rerun_(
+    run: RunDir,
+    out: Out = Path("results/rerun"),
+    overwrite: Overwrite = False,
+):
+    """Run an explore run again from its folder: its config.toml (method, pose source, step
+    budget, animation, every setting) and metrics.json's world (world_spec), start and seed. The
+    metrics come out the same, but for the wall time."""
+    import gtsam
+
+    from sim.config_file import CONFIG_NAME
+    from sim.world_io import load_world
+
+    if out.resolve() == run.resolve():
+        raise typer.BadParameter("is RUN_DIR itself: give another folder", param_hint="'--out'")
+    _check_out(out, "explore", overwrite)
+    metrics = _run_metrics(run)
+    missing = [k for k in ("world", "start", "seed", "method", "poses") if k not in metrics]
+    if missing:
+        raise typer.BadParameter(f"{run / 'metrics.json'} has no {', '.join(missing)}: not an explore run's",
+                                 param_hint="'RUN_DIR'")
+    if not (run / CONFIG_NAME).is_file():
+        raise typer.BadParameter(f"{run / CONFIG_NAME}: no such file", param_hint="'RUN_DIR'")
+    try:
+        cfg = episode_config(run / CONFIG_NAME).overridden(metrics["method"], metrics["poses"])
+    except typer.BadParameter as err:
+        raise typer.BadParameter(err.message, param_hint="'RUN_DIR'") from None
+    spec = metrics.get("world_spec") or {"world": metrics["world"], "size": None, "resolution": None}
+    try:
+        w = load_world(spec["world"], size=spec["size"], resolution=spec["resolution"])
+    except (ValueError, FileNotFoundError) as err:
+        how = "" if "world_spec" in metrics else " (its metrics.json has no world_spec, only the world's name)"
+        raise typer.BadParameter(f"cannot load the run's world{how}: {err}", param_hint="'RUN_DIR'") from None
+    _explore(w, gtsam.Pose2(*metrics["start"]), cfg, int(metrics["seed"]), out, overwrite, spec)
+
+
+@app.command()
+def figures(
+    run: RunDir,
+    out: Annotated[Optional[Path], typer.Option(
+        file_okay=False, help="folder for the figures (default: RUN_DIR/figures)")] = None,
+):
+    """Redraw an explore run's figures from its folder's files: map_trajectory.png (com.npz or
+    map.pgm/yaml, trajectory.tum, ground_truth.tum, graph.g2o's loop closures, metrics.json) and
+    entropy.png (curve.csv). Not frontier_maps.png, com_panels.png or the animation: the run's
+    frontier snapshots, scans and frames are not saved."""
+    from sim.results import OutputError, check_output_file, redraw_figures
+
+    folder = out if out is not None else run / "figures"
+    try:
+        for name in ("map_trajectory.png", "entropy.png"):
+            check_output_file(folder / name)
+    except OutputError as err:
+        raise typer.BadParameter(str(err), param_hint="'--out'") from None
+    _run_metrics(run)
+    try:
+        written = redraw_figures(run, folder)
+    except (FileNotFoundError, ValueError, KeyError) as err:
+        console.print(f"[red]error:[/red] {escape(str(err))}")
+        raise typer.Exit(2) from None
+    console.print(f"figures: {', '.join(map(str, written))}", markup=False)
 
 
 def _run_and_report(worlds, configs, seeds: int, out: Path, engine: str, workers, scheduler) -> None:
@@ -466,7 +573,7 @@ def _run_and_report(worlds, configs, seeds: int, out: Path, engine: str, workers
         summary = run_campaign(runs, pool, report)
     write_tables(out, runs)
     figures = write_figures(out, runs)
-    console.print(Markdown(table_markdown(runs)))
+    console.print(Markdown(table_markdown(runs)), soft_wrap=False)
     console.print(f"{summary['done_before']} runs were done before, {summary['finished']} finished now, "
                   f"{summary['failed']} failed")
     console.print(f"results in {out}/: <world>/<method>/seed_<k>/, table.md, table.csv, "

@@ -44,6 +44,13 @@ def _drive(stack: Stack, log: LaserLog, progress: bool) -> float:
     return time.perf_counter() - tic
 
 
+def _counted(items: list, bar: tqdm):
+    """``items``, each counted on ``bar`` once it has been processed."""
+    for item in items:
+        yield item
+        bar.update()
+
+
 def _replay_result(stack: Stack, wall: float) -> ReplayResult:
     slam = stack.localiser
     return ReplayResult(slam, np.array(slam.scan_stamps), slam.trajectory(), wall)
@@ -80,6 +87,11 @@ def map_log(log: LaserLog, poses: Literal["log", "slam"] = "log", com: COMConfig
     stack = Stack(config, mapping="final", planning=False, occupancy=measured)
     replay_wall = _drive(stack, log, progress)
     tic = time.perf_counter()
-    stack.final_map()
-    metrics = {**measured.metrics(), "wall_time_s": time.perf_counter() - tic}
+    # stack.final_map(), the mapped scans through a progress bar: learning the COM takes most of
+    # the time (Intel: 11 s of 13), then its scoring (AUC, entropy) a few seconds more
+    scans = stack.mapped_scans()
+    with tqdm(total=len(scans), desc="learning the map", unit="scan", disable=not progress) as bar:
+        measured.regenerate(_counted(scans, bar))
+        bar.set_postfix_str("scoring the map: AUC, entropy")
+        metrics = {**measured.metrics(), "wall_time_s": time.perf_counter() - tic}
     return LogMap(measured, metrics, _replay_result(stack, replay_wall) if poses == "slam" else None)

@@ -102,7 +102,7 @@ def run_folder_owner(folder: str | Path) -> str | None:
 def _check_creatable(path: Path) -> None:
     """OutputError unless ``path`` exists writable or can be created: its nearest existing parent
     is a writable folder."""
-    probe = path if path.exists() else path.parent
+    probe = path if path.is_dir() else path.parent          # an existing file is replaced in its folder
     while not probe.exists() and probe != probe.parent:
         probe = probe.parent
     if not probe.is_dir():
@@ -148,12 +148,18 @@ def start_metrics(result: EpisodeResult) -> dict:
     return {**area.metrics(), "warnings": warnings}
 
 
+def run_title(metrics: dict) -> str:
+    """The title of a run's figures, from its metrics.json."""
+    m = metrics
+    return (f"{m['world']} ({m['method']}): {m['travel_distance_m']:.0f} m, coverage "
+            f"{100 * m['coverage']:.1f} %, {m['termination_reason']}")
+
+
 def _figures(folder: Path, result: EpisodeResult, prob: np.ndarray, progress: bool) -> None:
     stack = result.stack
     m = result.metrics
     loops = stack.loop_segments()
-    title = (f"{m['world']} ({m['method']}): {m['travel_distance_m']:.0f} m, coverage "
-             f"{100 * m['coverage']:.1f} %, {m['termination_reason']}")
+    title = run_title(m)
     map_figure(folder / "map_trajectory.png", prob, stack.map.frame.extent, result.estimate,
                result.truth, loops, title)
     frontier_figure(folder / "frontier_maps.png", result.snapshots)
@@ -184,3 +190,70 @@ def read_curve(path: str | Path) -> dict[str, np.ndarray]:
     """curve.csv as one array per column (``CURVE_COLUMNS``)."""
     data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
     return dict(zip(CURVE_COLUMNS, data.T))
+
+
+#: The figures ``redraw_figures`` draws again from a run folder's files (frontier_maps.png needs the
+#: run's frontier snapshots, com_panels.png its scans and the animation its frames: none is saved).
+REDRAWN_FIGURES = ("map_trajectory.png", "entropy.png")
+
+
+def read_run_map(run: str | Path) -> tuple[np.ndarray, tuple[float, float, float, float]]:
+    """A run's final map: ``prob`` (h, w), row 0 at the bottom, and its extent (xmin, xmax, ymin,
+    ymax) in m; from com.npz when the run has one (a COM's probabilities), else from map.yaml
+    (its image read as map_server reads it: free 0, occupied 1, unknown 0.5)."""
+    from sim.world_io import read_ros_map
+
+    run = Path(run)
+    if (run / "com.npz").is_file():
+        with np.load(run / "com.npz") as z:
+            prob, r = np.asarray(z["prob"], float), float(z["resolution"])
+            corner = np.asarray(z["origin"], float) - r / 2            # the centre of cell (0, 0)
+    else:
+        ros = read_ros_map(run / "map.yaml")
+        prob = np.where(ros.state == ros.FREE, 0.0, np.where(ros.state == ros.OCCUPIED, 1.0, 0.5))
+        corner, r = np.asarray(ros.origin, float), ros.resolution
+    h, w = prob.shape
+    return prob, (corner[0], corner[0] + w * r, corner[1], corner[1] + h * r)
+
+
+def loop_segments_g2o(path: str | Path) -> np.ndarray:
+    """(m, 2, 2) the loop closures of a run's graph.g2o as segments between their keyframes'
+    poses: its edges between keyframes that are not consecutive (consecutive ones are the
+    keyframe links)."""
+    from slam.g2o import read_g2o
+
+    graph = read_g2o(path)
+    xy = {k: (p.x(), p.y()) for k, p in graph.poses.items()}
+    loops = [(xy[i], xy[j]) for i, j, _, _ in graph.edges if abs(j - i) != 1]
+    return np.array(loops, float).reshape(-1, 2, 2)
+
+
+def redraw_figures(run: str | Path, folder: str | Path | None = None) -> list[Path]:
+    """Draw a run's ``REDRAWN_FIGURES`` again from the files in its folder ``run`` into
+    ``folder`` (default ``run``/figures): map_trajectory.png from the map (``read_run_map``),
+    trajectory.tum, ground_truth.tum and graph.g2o's loops (none without a graph.g2o), titled
+    from metrics.json; entropy.png from curve.csv. Returns the files written.
+
+    Raises:
+        FileNotFoundError: a file the figures need is missing (named).
+    """
+    from slam.tum import read_tum
+
+    run = Path(run)
+    folder = Path(folder) if folder is not None else run / "figures"
+    for name in ("metrics.json", "trajectory.tum", "ground_truth.tum", "curve.csv"):
+        if not (run / name).is_file():
+            raise FileNotFoundError(f"{run / name}: no such file (an explore run's folder holds it)")
+    if not (run / "com.npz").is_file() and not (run / "map.yaml").is_file():
+        raise FileNotFoundError(f"{run}: no com.npz or map.yaml to draw the map from")
+    metrics = json.loads((run / "metrics.json").read_text())
+    prob, extent = read_run_map(run)
+    _, estimate = read_tum(run / "trajectory.tum")
+    _, truth = read_tum(run / "ground_truth.tum")
+    graph = run / "graph.g2o"
+    loops = loop_segments_g2o(graph) if graph.is_file() else np.zeros((0, 2, 2))
+    map_figure(folder / "map_trajectory.png", prob, extent, estimate, truth, loops, run_title(metrics))
+    curve = read_curve(run / "curve.csv")
+    rows = np.column_stack([curve[c] for c in ("step", "travel_m", "coverage", "entropy_nats")])
+    entropy_figure(folder / "entropy.png", {metrics["method"]: rows})
+    return [folder / name for name in REDRAWN_FIGURES]

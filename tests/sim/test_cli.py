@@ -106,6 +106,14 @@ def test_explore_writes_every_result(tmp_path, method):
         assert (out / name).stat().st_size > 0, name
     stamps, poses = read_tum(out / "trajectory.tum")
     assert len(poses) == metrics["steps"]
+    # the results line lists every file written (curve.csv was left out), on one line though
+    # longer than the 80 columns of a pipe (it wrapped: `100.0 \n%`)
+    line = next(line for line in result.stdout.splitlines() if line.startswith("results in"))
+    assert len(line) > 80
+    for name in products + ["metrics.json", "config.toml", "curve.csv"]:
+        assert f" {name}," in line + ",", name
+    summary = next(line for line in result.stdout.splitlines() if line.startswith(metrics["termination_reason"]))
+    assert summary.endswith(" collisions") and len(summary) > 80
 
 
 def test_explore_rejects_a_blocked_start(tmp_path):
@@ -395,3 +403,64 @@ def test_file_outputs_are_checked_before_any_work(tmp_path, monkeypatch):
     assert result.exit_code == 2 and "'--out': cannot create" in one_line(result.output)
     result = runner.invoke(app, ["config", "dump", "--out", str(tmp_path / "g.g2o" / "c.toml")])
     assert result.exit_code == 2 and "'--out': cannot create" in one_line(result.output)
+
+
+def test_rerun_runs_a_run_again_from_its_folder_and_figures_redraws_it(tmp_path):
+    """config.toml and metrics.json's world_spec, start and seed are all a run needs: `rerun`
+    gives the same metrics but for the wall time; `figures` draws the map and entropy figures
+    again from the folder's files; the animation is listed among the results."""
+    from PIL import Image
+
+    pixels = np.full((60, 100), 255, dtype=np.uint8)  # 5 m x 3 m at 0.05 m, walls around
+    pixels[:2], pixels[-2:], pixels[:, :2], pixels[:, -2:] = 0, 0, 0, 0
+    Image.fromarray(pixels).save(tmp_path / "room.png")
+    first, again = tmp_path / "first", tmp_path / "again"
+    result = runner.invoke(app, ["explore", "--world", str(tmp_path / "room.png"), "--size", "5", "3",
+                                 "--start", "1", "1.5", "0.3", "--seed", "5", "--max-steps", "30",
+                                 "--animate", "--out", str(first)])
+    assert result.exit_code == 0, result.output
+    assert "figures/animation.gif" in next(line for line in result.stdout.splitlines() if "results in" in line)
+    a = json.loads((first / "metrics.json").read_text())
+    assert a["world_spec"] == {"world": str(tmp_path / "room.png"), "size": [5.0, 3.0], "resolution": None}
+    result = runner.invoke(app, ["rerun", str(first), "--out", str(again)])
+    assert result.exit_code == 0, result.output
+    b = json.loads((again / "metrics.json").read_text())
+    assert a.pop("wall_time_s") > 0 and b.pop("wall_time_s") > 0
+    assert a == b and a["steps"] == 30 and a["start"] == [1.0, 1.5, 0.3] and a["seed"] == 5
+    assert (again / "figures" / "animation.gif").exists()                 # the configuration's animate_every
+    result = runner.invoke(app, ["rerun", str(first), "--out", str(first)])
+    assert result.exit_code == 2 and "is RUN_DIR itself" in one_line(result.output)
+
+    redrawn = tmp_path / "redrawn"
+    result = runner.invoke(app, ["figures", str(first), "--out", str(redrawn)])
+    assert result.exit_code == 0, result.output
+    for name in ("map_trajectory.png", "entropy.png"):
+        old, new = (np.asarray(Image.open(folder / name)) for folder in (first / "figures", redrawn))
+        assert old.shape == new.shape and np.mean(old != new) < 0.01, name   # the same figure
+    assert not (redrawn / "frontier_maps.png").exists()
+    result = runner.invoke(app, ["figures", str(first)])                # over the run's own figures
+    assert result.exit_code == 0 and f"{first}/figures/map_trajectory.png" in result.stdout, result.output
+    (first / "curve.csv").unlink()
+    result = runner.invoke(app, ["figures", str(first)])
+    assert result.exit_code == 2 and "curve.csv: no such file" in one_line(result.output)
+
+
+def test_figures_draws_the_loops_of_graph_g2o(tmp_path):
+    """The loop closures are graph.g2o's edges between keyframes that are not consecutive."""
+    from sim.results import loop_segments_g2o
+
+    (tmp_path / "graph.g2o").write_text(
+        "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nVERTEX_SE2 2 1 1 0\n"
+        "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\nEDGE_SE2 1 2 0 1 0 1 0 0 1 0 1\nEDGE_SE2 0 2 1 1 0 1 0 0 1 0 1\n")
+    np.testing.assert_array_equal(loop_segments_g2o(tmp_path / "graph.g2o"), [[[0, 0], [1, 1]]])
+
+
+def test_rerun_of_a_folder_without_a_recoverable_world_says_why(tmp_path):
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "config.toml").write_text("max_steps = 5\n")
+    (run / "metrics.json").write_text(json.dumps({"world": "suite_map_7.png", "start": [1, 1, 0], "seed": 0,
+                                                  "method": "gp", "poses": "slam"}))
+    result = runner.invoke(app, ["rerun", str(run), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2
+    assert "no world_spec, only the world's name" in one_line(result.output)

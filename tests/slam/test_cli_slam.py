@@ -20,6 +20,22 @@ def test_posegraph_prints_chi2_and_writes(tmp_path):
     assert "chi2" in result.output and out.exists()
     after = float(result.output.split("chi2 (g2o EdgeSE2):")[1].split("->")[1].split()[0])
     assert after < 1e-8          # a consistent triangle is solved exactly
+    result = runner.invoke(app, ["posegraph", str(graph), "--out", str(out)])
+    assert result.exit_code == 0, result.output                           # an existing file is replaced
+
+
+def test_posegraph_says_what_it_optimises_before_each_silent_stage(tmp_path):
+    """GTSAM's optimize and the χ² refinement are one call each (INTEL with lm: seconds of
+    silence): a status line on stderr names each before it runs; stdout keeps the results."""
+    graph = tmp_path / "tri.g2o"
+    graph.write_text("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1.2 0.1 0\nVERTEX_SE2 2 1.9 1.1 1.7\n"
+                     "EDGE_SE2 0 1 1 0 0 100 0 0 100 0 1000\nEDGE_SE2 1 2 1 0 1.5708 100 0 0 100 0 1000\n"
+                     "EDGE_SE2 0 2 2 0 1.5708 100 0 0 100 0 1000\n")
+    result = runner.invoke(app, ["posegraph", str(graph), "--method", "lm"])
+    assert result.exit_code == 0, result.output
+    assert "optimising 3 poses, 3 edges: GTSAM lm (QR) ..." in result.stderr
+    assert "Levenberg–Marquardt on g2o's exact chi2 ..." in result.stderr
+    assert "optimising" not in result.stdout and "chi2 (g2o EdgeSE2)" in result.stdout
 
 
 def test_posegraph_bad_file_names_the_line(tmp_path):
