@@ -88,7 +88,7 @@ def agreement(reference, other) -> float:
 
 
 @pytest.mark.xfail(strict=True, reason="exploration/stack.py still maps at the base pose: it must "
-                   "map at pose ∘ localiser.laser_offset (see the laser-offset commit)")
+                   "map at pose ∘ the configured laser_offset (stack.slam.laser_offset)")
 def test_a_mounted_laser_with_its_offset_configured_gives_the_same_map(tour):
     every = slice(None, None, 4)
     truth = tour.truth[every]
