@@ -119,6 +119,10 @@ class Navigator:
             self._spin_until = stamp + 2 * math.pi / self.follower.max_turn_rate - 1e-9
         return stamp < self._spin_until
 
+    def spin(self, stamp: float) -> None:
+        """Turn once more on the spot, from scan time ``stamp`` (s)."""
+        self._spin_until = stamp + 2 * math.pi / self.follower.max_turn_rate - 1e-9
+
     def command(self, pose: gtsam.Pose2, plan: Plan, stamp: float,
                 obstacles: np.ndarray = np.zeros((0, 2))) -> Command:
         """The command at ``pose`` for ``plan`` at scan time ``stamp`` (s): turn on the spot at

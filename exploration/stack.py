@@ -28,6 +28,7 @@ from slam.config import SlamConfig
 from slam.localiser import GivenPoses, Localisation, Localiser
 from slam.pose_slam import PoseSlam
 from slam.poses import positions
+from slam.registration import transform
 from slam.scan import LaserScan
 
 
@@ -96,6 +97,8 @@ class Stack:
         if planning and mapping != "online":
             raise ValueError("Stack: planning needs the map online (mapping='online')")
         self.mapping = mapping
+        #: the laser's pose on the base (the configuration's): scans are mapped at pose ∘ laser_offset
+        self.laser_offset = c.slam.laser_mount()
         self.localiser: Localiser = localiser or (PoseSlam(c.slam) if c.poses == "slam"
                                                   else GivenPoses(c.slam.keyframes))
         self.map: OccupancyMap | None = None if mapping == "off" else occupancy or self._new_map()
@@ -111,6 +114,7 @@ class Stack:
         self.scans = self.regenerations = self.goals_abandoned = 0
         self._mapped: list[tuple[int, LaserScan]] = []   # (scan index, scan) in the map
         self._since_plan = 0
+        self._looked_round = True    # the initial spin is the first look round
 
     def step(self, odometry: gtsam.Pose2 | None, scan: LaserScan,
              truth: gtsam.Pose2 | None = None) -> StackStep:
@@ -139,12 +143,14 @@ class Stack:
         return here.keyframe is not None if every == 0 else (self.scans - 1) % every == 0
 
     def _map(self, pose: gtsam.Pose2, scan: LaserScan) -> None:
-        """Keep the scan for regeneration, and fuse it now when the map is online."""
+        """Keep the scan for regeneration, and fuse it now when the map is online, at the
+        laser's pose (the base ``pose`` ∘ ``laser_offset``)."""
         self._mapped.append((self.scans - 1, scan))
         if self.mapping == "online":
-            self.map.update(pose, scan)
+            laser = pose.compose(self.laser_offset)
+            self.map.update(laser, scan)
             if self.costmap is not None and self.costmap is not self.map:
-                self.costmap.update(pose, scan)
+                self.costmap.update(laser, scan)
 
     def _drifted(self) -> bool:
         """After a correction: did the online map drift past its threshold (the COM's
@@ -154,8 +160,10 @@ class Stack:
     def _navigate(self, here: Localisation, scan: LaserScan, out: StackStep) -> None:
         """Re-plan when a goal is needed (none yet, every ``plan_every`` keyframes, the goal
         reached or abandoned, and before stopping, so that the stop is decided on the current
-        map), then command the robot along the plan's path, kept off the scan's hits."""
-        stamp, obstacles = scan.timestamp, scan.points()
+        map), then command the robot along the plan's path, kept off the scan's hits. Before
+        stopping, the robot turns once on the spot if it has not since its last goal: what lies
+        behind it may open a way (a corridor it drove into) or close the frontier."""
+        stamp, obstacles = scan.timestamp, transform(self.laser_offset, scan.points())
         self._since_plan += here.keyframe is not None
         spinning = self.navigator.spinning(stamp)
         if (self.plan is None or (here.keyframe is not None and self._since_plan >= self.config.plan_every)
@@ -172,6 +180,11 @@ class Stack:
             command = self.navigator.command(here.pose, self.plan, stamp, obstacles)
         out.command = command
         if self.plan.goal is None and not spinning:
+            if not self._looked_round:          # the laser sees half the circle: look once more
+                self._looked_round = True
+                self.navigator.spin(stamp)
+                out.command = self.navigator.command(here.pose, self.plan, stamp, obstacles)
+                return
             out.done = self.plan.done
 
     def replan(self, pose: gtsam.Pose2) -> Plan:
@@ -180,6 +193,7 @@ class Stack:
         self.plan = self.explorer.plan(self.snapshot(), pose)
         if self.plan.new_goal:
             self.navigator.new_goal()
+            self._looked_round = False
         return self.plan
 
     def snapshot(self) -> MapSnapshot:
@@ -209,8 +223,8 @@ class Stack:
         return self.map
 
     def mapped_scans(self) -> list[tuple[gtsam.Pose2, LaserScan]]:
-        """(current pose, scan) of every scan in the map."""
-        return [(self.localiser.pose(i), scan) for i, scan in self._mapped]
+        """(current laser pose, scan) of every scan in the map."""
+        return [(self.localiser.pose(i).compose(self.laser_offset), scan) for i, scan in self._mapped]
 
     def keyframe_poses(self) -> list[gtsam.Pose2]:
         return self.localiser.keyframe_poses()

@@ -87,8 +87,6 @@ def agreement(reference, other) -> float:
     return float(np.mean((q > 0.7) == (p[known] > 0.7)) * np.mean((q < 0.3) | (q > 0.7)))
 
 
-@pytest.mark.xfail(strict=True, reason="exploration/stack.py still maps at the base pose: it must "
-                   "map at pose ∘ the configured laser_offset (stack.slam.laser_offset)")
 def test_a_mounted_laser_with_its_offset_configured_gives_the_same_map(tour):
     every = slice(None, None, 4)
     truth = tour.truth[every]
