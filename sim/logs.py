@@ -16,7 +16,7 @@ from mapping.config import COMConfig
 from mapping.measured import MeasuredMap
 from slam.carmen import DEFAULT_MAX_RANGE, CarmenLog
 from slam.config import SlamConfig
-from slam.laser_log import LaserLog
+from slam.laser_log import LaserLog, LaserMount, laser_mount
 from slam.pose_slam import PoseSlam
 from slam.replay import ReplayResult
 
@@ -51,17 +51,24 @@ def _counted(items: list, bar: tqdm):
         bar.update()
 
 
-def _replay_result(stack: Stack, wall: float) -> ReplayResult:
+def _replay_result(stack: Stack, wall: float, mount: LaserMount | None = None) -> ReplayResult:
     slam = stack.localiser
-    return ReplayResult(slam, np.array(slam.scan_stamps), slam.trajectory(), wall)
+    return ReplayResult(slam, np.array(slam.scan_stamps), slam.trajectory(), wall, mount)
+
+
+def _mounted(log: LaserLog, config: SlamConfig) -> tuple[SlamConfig, LaserMount]:
+    """``config`` with the laser offset ``log`` states, else its own; and where it came from."""
+    mount = laser_mount(log, config.laser_offset)
+    return config.model_copy(update={"laser_offset": mount.offset}), mount
 
 
 def replay_log(log: LaserLog, config: SlamConfig | None = None, progress: bool = False,
                slam: PoseSlam | None = None) -> ReplayResult:
     """Pose SLAM over every record of ``log``, the log's raw odometry as the prediction (the
     stack without map or planner); ``slam``: a prepared PoseSlam to use instead of a new one."""
-    stack = Stack(StackConfig(slam=config or SlamConfig()), mapping="off", planning=False, localiser=slam)
-    return _replay_result(stack, _drive(stack, log, progress))
+    config, mount = _mounted(log, config or SlamConfig())
+    stack = Stack(StackConfig(slam=config), mapping="off", planning=False, localiser=slam)
+    return _replay_result(stack, _drive(stack, log, progress), mount)
 
 
 @dataclass
@@ -82,8 +89,8 @@ def map_log(log: LaserLog, poses: Literal["log", "slam"] = "log", com: COMConfig
     if poses not in ("log", "slam"):
         raise ValueError(f"unknown pose source '{poses}' (have: log, slam)")
     measured = MeasuredMap(com, holdout)
-    config = StackConfig(poses="truth" if poses == "log" else "slam", slam=slam or SlamConfig(),
-                         map_every=every)
+    slam, mount = _mounted(log, slam or SlamConfig())
+    config = StackConfig(poses="truth" if poses == "log" else "slam", slam=slam, map_every=every)
     stack = Stack(config, mapping="final", planning=False, occupancy=measured)
     replay_wall = _drive(stack, log, progress)
     tic = time.perf_counter()
@@ -93,5 +100,5 @@ def map_log(log: LaserLog, poses: Literal["log", "slam"] = "log", com: COMConfig
     with tqdm(total=len(scans), desc="learning the map", unit="scan", disable=not progress) as bar:
         measured.regenerate(_counted(scans, bar))
         bar.set_postfix_str("scoring the map: AUC, entropy")
-        metrics = {**measured.metrics(), "wall_time_s": time.perf_counter() - tic}
-    return LogMap(measured, metrics, _replay_result(stack, replay_wall) if poses == "slam" else None)
+        metrics = {**measured.metrics(), **mount.metrics(), "wall_time_s": time.perf_counter() - tic}
+    return LogMap(measured, metrics, _replay_result(stack, replay_wall, mount) if poses == "slam" else None)

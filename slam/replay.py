@@ -11,7 +11,7 @@ import numpy as np
 from slam.atomic import write_json_atomic
 from slam.carmen import CarmenLog, write_corrected_log
 from slam.evaluation import read_relations, relation_error
-from slam.laser_log import LaserLog
+from slam.laser_log import LaserLog, LaserMount
 from slam.pose_slam import PoseSlam
 from slam.poses import positions
 from slam.tum import write_tum
@@ -25,6 +25,7 @@ class ReplayResult:
     stamps: np.ndarray
     trajectory: list[gtsam.Pose2]
     wall_time: float
+    mount: LaserMount | None = None
 
 
 def write_replay(out: str | Path, log: LaserLog, result: ReplayResult,
@@ -35,7 +36,7 @@ def write_replay(out: str | Path, log: LaserLog, result: ReplayResult,
     out = Path(out)
     write_trajectory_and_graph(out, result)
     if isinstance(log, CarmenLog):
-        write_corrected_log(out / "corrected.clf", log, result.trajectory)
+        write_corrected_log(out / "corrected.clf", log, result.trajectory, result.slam.laser_offset)
     metrics = {"log": str(log.path), **replay_metrics(log, result)}
     if relations is not None:
         odometry = [r.odometry for r in log]
@@ -68,6 +69,8 @@ def replay_metrics(log: LaserLog, result: ReplayResult) -> dict:
     return {
         "scans": len(log),
         **source,
+        **(result.mount.metrics() if result.mount else {}),
+        "warnings": [result.mount.warning] if result.mount and result.mount.warning else [],
         "keyframes": len(slam.graph),
         "loop_closures": len(slam.loops),
         "loops": {"proposed": slam.loop_counts["proposed"], "verified": slam.loop_counts["verified"],
@@ -94,7 +97,8 @@ def trajectory_figure(path: str | Path, result: ReplayResult, max_points: int = 
 
     slam = result.slam
     poses = slam.keyframe_poses()
-    cloud = np.concatenate([transform(p, s.points()) for p, s in zip(poses, slam.keyframe_scans)])
+    cloud = np.concatenate([transform(p.compose(slam.laser_offset), s.points())
+                            for p, s in zip(poses, slam.keyframe_scans)])
     if len(cloud) > max_points:
         cloud = cloud[np.random.default_rng(0).choice(len(cloud), max_points, replace=False)]
     xy = positions(result.trajectory)

@@ -15,6 +15,7 @@ class Log(list):
     """A laser log's records (``.scan``, ``.pose``, ``.odometry``), as map_log reads them."""
 
     path = Path("two_rooms.clf")
+    laser_offset = None     # the log states no mount
 
 
 def test_learning_the_map_of_a_log_shows_a_progress_bar(capsys):
