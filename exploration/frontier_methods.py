@@ -18,7 +18,7 @@ from exploration.frontier import frontier_map
 from exploration.gain import visible_unknown_area
 from exploration.goals import Blacklist, FrontierCluster, extract_goals
 from exploration.grid_frontier import grid_frontiers
-from exploration.paths import best_cell_near, path_to
+from exploration.paths import Approach, best_cell_near, path_to
 from mapping.occupancy import MapSnapshot
 
 if TYPE_CHECKING:
@@ -62,12 +62,14 @@ class Frontier:
     """A snapshot's frontier: ``values`` (h, w) the frontier map (F, or 1 on grid frontier
     cells), ``cells`` (n, 2) its significant cells (ix, iy), for the grid method its
     ``regions`` (a list of (m, 2) cell arrays), and for the C-frontier method the snapshot's
-    ``evidence`` (h, w) its significance test looks round on."""
+    ``evidence`` (h, w) its significance test looks round on; ``blocked`` (h, w) bool, the cells
+    the laser cannot see through."""
 
     values: np.ndarray
     cells: np.ndarray
     regions: tuple[np.ndarray, ...] = ()
     evidence: np.ndarray | None = None
+    blocked: np.ndarray | None = None
 
 
 class CFrontier:
@@ -83,13 +85,18 @@ class CFrontier:
         c = self.config
         values = frontier_map(snapshot.prob, snapshot.prob_occ, snapshot.resolution, c.beta, c.smoothing)
         iy, ix = np.nonzero(values > c.goals.threshold)
-        return Frontier(values, np.column_stack([ix, iy]), evidence=evidence(snapshot))
+        seen = evidence(snapshot)
+        return Frontier(values, np.column_stack([ix, iy]), evidence=seen,
+                        blocked=seen > self.costmap.occupied_above)
 
     def clusters(self, frontier: Frontier, reachable: Reachable, blacklist: Blacklist,
                  rng: np.random.Generator) -> list[FrontierCluster]:
         c = self.config
+        approach = Approach(reachable.dist, frontier.blocked, reachable.resolution, c.goals.view,
+                            c.goals.reach)
         clusters = extract_goals(frontier.values, reachable.origin, reachable.resolution,
-                                 reachable.dist, c.goals, blacklist, seed=int(rng.integers(2**31)))
+                                 reachable.dist, c.goals, blacklist, seed=int(rng.integers(2**31)),
+                                 approach=approach)
         return [k for k in clusters if visible_unknown_area(
             frontier.evidence, reachable.origin, reachable.resolution,
             k.goal if k.goal is not None else k.centroid, c.sensor_range,
@@ -109,13 +116,16 @@ class GridFrontier:
         cells = np.vstack(regions) if regions else np.zeros((0, 2), int)
         values = np.zeros(snapshot.prob.shape)
         values[cells[:, 1], cells[:, 0]] = 1.0
-        return Frontier(values, cells, tuple(regions))
+        return Frontier(values, cells, tuple(regions),
+                        blocked=evidence(snapshot) > self.costmap.occupied_above)
 
     def clusters(self, frontier: Frontier, reachable: Reachable, blacklist: Blacklist,
                  rng: np.random.Generator) -> list[FrontierCluster]:
         """Each region left once blacklisted cells are removed is a cluster; its utility is minus
         the path length to it (Yamauchi's nearest frontier)."""
         origin, resolution = reachable.origin, reachable.resolution
+        goals = self.config.goals
+        approach = Approach(reachable.dist, frontier.blocked, resolution, goals.view, goals.reach)
         clusters = []
         for region in frontier.regions:
             region = region[~blacklist.covers(origin + resolution * region)]
@@ -123,12 +133,15 @@ class GridFrontier:
                 continue
             d = reachable.near[region[:, 1], region[:, 0]]
             best = int(np.argmin(d))
-            goal = None
-            if np.isfinite(d[best]):
-                goal = origin + resolution * best_cell_near(reachable.dist, region[best], reachable.reach)
+            distance = float(d[best])
+            if np.isfinite(distance):
+                cell = best_cell_near(reachable.dist, region[best], reachable.reach)
+            else:
+                cell = approach.goal(region)
+                distance = math.inf if cell is None else float(reachable.dist[cell[1], cell[0]])
+            goal = None if cell is None else origin + resolution * cell
             points = origin + resolution * region
-            clusters.append(FrontierCluster(points, points.mean(axis=0), 1.0, float(d[best]), goal,
-                                            -float(d[best])))
+            clusters.append(FrontierCluster(points, points.mean(axis=0), 1.0, distance, goal, -distance))
         clusters.sort(key=lambda k: -k.utility)
         return clusters
 

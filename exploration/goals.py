@@ -9,7 +9,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 from sklearn.cluster import KMeans
 
-from exploration.paths import best_cell_near, near_distance
+from exploration.paths import Approach, best_cell_near, near_distance
 
 
 class GoalConfig(BaseModel):
@@ -25,6 +25,10 @@ class GoalConfig(BaseModel):
                          "the paper gives no value. n/N grows as frontiers run out, so a large α "
                          "sends the robot across the map late in a run for the biggest remnant")
     reach: float = Field(0.6, gt=0, description="meters from a frontier point to a goal cell")
+    view: float = Field(4.0, ge=0, description="meters: a cluster with no reachable cell within "
+                        "reach is approached from the reachable cell nearest to it in a straight "
+                        "line, when that is within this (the far side of a door seen as a few "
+                        "beams); 0 turns this off")
     blacklist_radius: float = Field(0.75, gt=0, description="meters around a failed goal")
 
 
@@ -71,7 +75,7 @@ def utility(mean_value: float, size: int, total: int, distance: float, alpha: fl
 
 def extract_goals(frontier: np.ndarray, origin, resolution: float, dist: np.ndarray,
                   config: GoalConfig, blacklist: Blacklist | None = None,
-                  seed: int = 0) -> list[FrontierCluster]:
+                  seed: int = 0, approach: Approach | None = None) -> list[FrontierCluster]:
     """Frontier clusters, best first (eq. 11); empty when no significant frontier is left.
 
     Args:
@@ -82,6 +86,8 @@ def extract_goals(frontier: np.ndarray, origin, resolution: float, dist: np.ndar
             e.g. ``paths.distance_field`` over the passable cells.
         config: threshold, cluster size, α, reach.
         blacklist: goals to avoid.
+        approach: where to look at a cluster no reachable cell is within reach of (else it
+            has no goal).
         seed: for k-means.
     """
     iy, ix = np.nonzero(frontier > config.threshold)
@@ -105,10 +111,13 @@ def extract_goals(frontier: np.ndarray, origin, resolution: float, dist: np.ndar
         d_points = near[iy[members], ix[members]]
         best = int(np.argmin(d_points))
         distance = float(d_points[best])
-        goal = None
+        cell = None
         if np.isfinite(distance):
             cell = best_cell_near(dist, (ix[members][best], iy[members][best]), radius)
-            goal = np.asarray(origin) + resolution * cell
+        elif approach is not None:
+            cell = approach.goal(np.column_stack([ix[members], iy[members]]))
+            distance = math.inf if cell is None else float(dist[cell[1], cell[0]])
+        goal = None if cell is None else np.asarray(origin) + resolution * cell
         mean_value = float(values[members].mean())
         score = utility(mean_value, int(members.sum()), len(points), distance, config.alpha)
         clusters.append(FrontierCluster(points[members], points[members].mean(axis=0), mean_value,

@@ -108,3 +108,43 @@ def best_cell_near(dist: np.ndarray, cell, radius: int) -> np.ndarray:
               & (candidates[:, 1] >= 0) & (candidates[:, 1] < h))
     candidates = candidates[inside]
     return candidates[np.argmin(dist[candidates[:, 1], candidates[:, 0]])]
+
+
+class Approach:
+    """Where to look at a frontier no reachable cell is near (a room's far side seen as a few
+    beams through its door): the reachable cell nearest to it in a straight line that sees it
+    (no ``blocked`` cell on the segment), more than ``min_path`` meters of path from the robot
+    and no farther than ``view`` meters from the frontier.
+
+    Args:
+        dist: (h, w) path length from the robot (inf where unreachable), ``distance_field``'s.
+        blocked: (h, w) bool, cells the laser cannot see through.
+        resolution: cell size, meters.
+    """
+
+    def __init__(self, dist: np.ndarray, blocked: np.ndarray, resolution: float, view: float,
+                 min_path: float):
+        self.dist, self.blocked, self.view, self.min_path = dist, blocked, view, min_path
+        self.resolution = resolution
+        self._away, self._nearest = ndimage.distance_transform_edt(
+            ~np.isfinite(dist), sampling=resolution, return_indices=True)
+
+    def goal(self, cells: np.ndarray) -> np.ndarray | None:
+        """The cell (ix, iy) from which to look at the frontier ``cells`` (k, 2) (ix, iy), or
+        None when no such cell is within ``view``, sees it, and is not where the robot is."""
+        away = self._away[cells[:, 1], cells[:, 0]]
+        for k in np.argsort(away, kind="stable")[:16]:
+            if away[k] > self.view:
+                return None
+            iy, ix = self._nearest[:, cells[k, 1], cells[k, 0]]
+            if self.dist[iy, ix] > self.min_path and self._sees((ix, iy), cells[k]):
+                return np.array([ix, iy])
+        return None
+
+    def _sees(self, a, b) -> bool:
+        """No blocked cell between cells ``a`` and ``b`` (ix, iy), sampled every half cell."""
+        n = max(2, int(2 * math.hypot(b[0] - a[0], b[1] - a[1])) + 1)
+        t = np.linspace(0.0, 1.0, n)
+        ix = np.round(a[0] + t * (b[0] - a[0])).astype(int)
+        iy = np.round(a[1] + t * (b[1] - a[1])).astype(int)
+        return not self.blocked[iy, ix].any()
