@@ -48,8 +48,7 @@ class EpisodeConfig(BaseModel):
 
     robot: RobotConfig = RobotConfig()
     lidar: LidarConfig = LidarConfig()
-    # the variances as the decimals they are (OdometryNoise's 0.05**2 is 0.0025000000000000005)
-    odometry: OdometryNoise = OdometryNoise(alpha1=0.0025, alpha2=0.0025, alpha3=0.0025, alpha4=0.0001)
+    odometry: OdometryNoise = OdometryNoise()
     stack: StackConfig = StackConfig()
     max_steps: int = Field(6000, ge=1, description="scans before the run stops (step_budget)")
     metrics_every: int = Field(25, ge=1, description="steps between coverage/entropy samples")

@@ -22,10 +22,10 @@ class OdometryNoise(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    alpha1: float = Field(0.05**2, ge=0, description="rotation noise from rotation")
-    alpha2: float = Field(0.05**2, ge=0, description="rotation noise from translation (rad²/m²)")
-    alpha3: float = Field(0.05**2, ge=0, description="translation noise from translation")
-    alpha4: float = Field(0.01**2, ge=0, description="translation noise from rotation (m²/rad²)")
+    alpha1: float = Field(0.0025, ge=0, description="rotation noise from rotation (0.05²)")
+    alpha2: float = Field(0.0025, ge=0, description="rotation noise from translation (rad²/m², 0.05²)")
+    alpha3: float = Field(0.0025, ge=0, description="translation noise from translation (0.05²)")
+    alpha4: float = Field(0.0001, ge=0, description="translation noise from rotation (m²/rad², 0.01²)")
 
 
 class Odometry:
