@@ -140,8 +140,8 @@ class Explorer:
         origin, resolution = np.asarray(snapshot.origin, float), snapshot.resolution
         here = np.array([pose.x(), pose.y()])
         start = np.round((here - origin) / resolution).astype(int)
-        ok, cost = passable(evidence(snapshot), resolution, c.robot_radius, self.method.costmap, snapshot.hits,
-                            origin)
+        ok, cost = passable(evidence(snapshot), resolution, c.robot_radius, self.method.costmap,
+                            snapshot.hits, origin)
         # the robot stands on free ground even where its sensor has not looked (behind it)
         h, w = ok.shape
         yy, xx = np.mgrid[0:h, 0:w]
@@ -159,4 +159,3 @@ class Explorer:
         near = np.min(np.linalg.norm(points[:, None, :] - targets[None, :: max(1, len(targets) // 32)],
                                      axis=2), axis=1)
         return bool(np.count_nonzero(near < self.config.goals.reach) >= self.config.goals.min_points // 2)
-

@@ -86,9 +86,9 @@ def extract_goals(frontier: np.ndarray, origin, resolution: float, dist: np.ndar
             e.g. ``paths.distance_field`` over the passable cells.
         config: threshold, cluster size, α, reach.
         blacklist: goals to avoid.
+        seed: for k-means.
         approach: where to look at a cluster no reachable cell is within reach of (else it
             has no goal).
-        seed: for k-means.
     """
     iy, ix = np.nonzero(frontier > config.threshold)
     points = np.asarray(origin) + resolution * np.column_stack([ix, iy])

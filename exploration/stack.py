@@ -97,7 +97,8 @@ class Stack:
         if planning and mapping != "online":
             raise ValueError("Stack: planning needs the map online (mapping='online')")
         self.mapping = mapping
-        #: the laser's pose on the base (the configuration's): scans are mapped at pose ∘ laser_offset
+        #: the laser's pose on the base (the configuration's): scans are mapped at
+        #: pose ∘ laser_offset
         self.laser_offset = c.slam.laser_mount()
         self.localiser: Localiser = localiser or (PoseSlam(c.slam) if c.poses == "slam"
                                                   else GivenPoses(c.slam.keyframes))
@@ -206,8 +207,8 @@ class Stack:
         h, w = frame.shape
         yy, xx = np.mgrid[0:h, 0:w]
         centres = frame.origin + frame.resolution * np.stack([xx, yy], axis=-1)
-        return dataclasses.replace(snapshot, hits=self.costmap.hits(),
-                                   traversable=self.costmap.frame.sample(self.costmap.prob(), centres))
+        traversable = self.costmap.frame.sample(self.costmap.prob(), centres)
+        return dataclasses.replace(snapshot, hits=self.costmap.hits(), traversable=traversable)
 
     def regenerate(self) -> None:
         """Relearn the map from every mapped scan at its corrected pose (Section VII)."""
@@ -224,7 +225,8 @@ class Stack:
 
     def mapped_scans(self) -> list[tuple[gtsam.Pose2, LaserScan]]:
         """(current laser pose, scan) of every scan in the map."""
-        return [(self.localiser.pose(i).compose(self.laser_offset), scan) for i, scan in self._mapped]
+        return [(self.localiser.pose(i).compose(self.laser_offset), scan)
+                for i, scan in self._mapped]
 
     def keyframe_poses(self) -> list[gtsam.Pose2]:
         return self.localiser.keyframe_poses()
