@@ -28,10 +28,11 @@ class NavigationConfig(BaseModel):
                              "the goal along the path before it is abandoned and blacklisted")
     stuck_progress: float = Field(0.2, gt=0, description="progress along the path (m) that restarts "
                                   "the stuck count")
-    guard_clearance: float = Field(0.0, ge=0, description="the robot slows, then stops and turns "
+    guard_clearance: float = Field(0.02, ge=0, description="the robot slows, then stops and turns "
                                    "on the spot, rather than drive its disc closer than this (m) to "
-                                   "a point of the current scan: the path may be off by more than "
-                                   "the planner's margin (pose error, cut corners)")
+                                   "a point of the current scan (2 sigma of the range noise, as the "
+                                   "planner's margin): the path may be off by more than that (pose "
+                                   "error, cut corners)")
     guard_horizon: float = Field(0.5, gt=0, description="seconds of the commanded arc checked "
                                  "against the current scan")
 
