@@ -17,6 +17,7 @@ import gtsam
 import numpy as np
 
 from slam.poses import pose_array
+from slam.text import read_text
 
 #: A trajectory pose within this of a relation time is used directly (s).
 MATCH_TOLERANCE = 0.1
@@ -44,12 +45,7 @@ def read_relations(path: str | Path) -> Relations:
         RelationsError: the file cannot be read, or a line is malformed (the file and line named).
     """
     path = Path(path)
-    try:
-        text = path.read_bytes().decode()
-    except OSError as err:
-        raise RelationsError(f"{path}: cannot read: {err.strerror or err}") from None
-    except UnicodeDecodeError as err:
-        raise RelationsError(f"{path}: not a text file (byte {err.start} is not UTF-8)") from None
+    text = read_text(path, RelationsError)
     rows = []
     for number, line in enumerate(text.splitlines(), start=1):
         fields = line.split()

@@ -18,6 +18,7 @@ import numpy as np
 
 from slam.atomic import write_text_atomic
 from slam.poses import pose_array
+from slam.text import read_text
 
 
 class G2oFormatError(ValueError):
@@ -69,12 +70,7 @@ def read_g2o(path: str | Path) -> PoseGraph2D:
     """
     path = Path(path)
     graph = PoseGraph2D()
-    try:
-        text = path.read_bytes().decode()
-    except OSError as err:
-        raise G2oFormatError(f"{path}: cannot read: {err.strerror or err}") from None
-    except UnicodeDecodeError as err:
-        raise G2oFormatError(f"{path}: not a text file (byte {err.start} is not UTF-8)") from None
+    text = read_text(path, G2oFormatError)
     first_use: dict[int, int] = {}                  # vertex id -> first edge line naming it
     for number, line in enumerate(text.splitlines(), start=1):
         fields = line.split()
