@@ -180,16 +180,6 @@ def test_g2o_reader(text):
         assert_names(warning, path, line=True)
 
 
-@FUZZ
-@given(data=st.binary(max_size=200))
-def test_g2o_reader_on_bytes(data):
-    path = written("graph.g2o", data)
-    try:
-        read_g2o(path)
-    except G2oFormatError as err:
-        assert_names(err, path)
-
-
 # --- relations -------------------------------------------------------------------------------
 
 RELATION_LINES = st.one_of(st.lists(SMALL, min_size=8, max_size=8).flatmap(mutated),
@@ -328,14 +318,22 @@ def test_config_reader(text, suffix):
     event("parsed")
 
 
-@FUZZ
-@given(data=st.binary(max_size=100))
-def test_config_reader_on_bytes(data):
-    path = written("config.toml", data)
-    try:
-        read_config(path)
-    except ConfigError as err:
-        assert_names(err, path)
+@pytest.mark.parametrize("reader, error, name, size", [
+    (read_g2o, G2oFormatError, "graph.g2o", 200), (read_config, ConfigError, "config.toml", 100),
+])
+def test_reader_on_bytes(reader, error, name, size):
+    """Any bytes: the graph or the configuration, or the reader's own error naming the file."""
+
+    @FUZZ
+    @given(data=st.binary(max_size=size))
+    def read(data):
+        path = written(name, data)
+        try:
+            reader(path)
+        except error as err:
+            assert_names(err, path)
+
+    read()
 
 
 @pytest.mark.parametrize("reader, error, name", [
