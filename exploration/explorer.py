@@ -140,15 +140,16 @@ class Explorer:
         origin, resolution = np.asarray(snapshot.origin, float), snapshot.resolution
         here = np.array([pose.x(), pose.y()])
         start = np.round((here - origin) / resolution).astype(int)
-        ok, cost = passable(evidence(snapshot), resolution, c.robot_radius, self.method.costmap,
-                            snapshot.hits, origin)
+        ok, cost, offset = passable(evidence(snapshot), resolution, c.robot_radius,
+                                    self.method.costmap, snapshot.hits, origin)
         # the robot stands on free ground even where its sensor has not looked (behind it)
         h, w = ok.shape
         yy, xx = np.mgrid[0:h, 0:w]
         ok |= np.hypot(xx - start[0], yy - start[1]) * resolution <= c.robot_radius
         dist, parent = distance_field(ok, np.clip(start, 0, [w - 1, h - 1]), resolution, cost)
         reach = max(1, round(c.goals.reach / resolution))
-        return Reachable(dist, parent, near_distance(dist, reach), reach, origin, resolution, here)
+        return Reachable(dist, parent, near_distance(dist, reach), reach, origin, resolution, here,
+                         offset)
 
     def _goal_still_valid(self, frontier: Frontier, reachable: Reachable) -> bool:
         """The goal is still reachable and frontier points remain near its target."""

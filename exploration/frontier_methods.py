@@ -30,7 +30,8 @@ class Reachable:
     """Where the robot can go on one snapshot: path length ``dist`` (h, w) in meters from the
     robot (inf where unreachable) with its Dijkstra ``parent``; ``near`` (h, w), the path length
     to the best reachable cell within ``reach`` cells of each cell; the snapshot's ``origin``
-    and ``resolution``; and the robot's position ``here`` (2,)."""
+    and ``resolution``; the robot's position ``here`` (2,); and ``offset`` (h, w, 2), meters
+    from each cell's centre to the point a path through it passes (``costmap.passable``'s)."""
 
     dist: np.ndarray
     parent: np.ndarray
@@ -39,6 +40,7 @@ class Reachable:
     origin: np.ndarray
     resolution: float
     here: np.ndarray
+    offset: np.ndarray
 
     def cell(self, xy: np.ndarray) -> np.ndarray:
         """The (ix, iy) cell of a point (meters)."""
@@ -51,8 +53,10 @@ class Reachable:
         return float(self.dist[iy, ix]) if 0 <= ix < w and 0 <= iy < h else math.inf
 
     def path(self, goal: np.ndarray) -> np.ndarray:
-        """(k, 2) the cheapest path from the robot to the cell of ``goal``, meters."""
-        path = self.origin + self.resolution * path_to(self.parent, self.cell(goal))
+        """(k, 2) the cheapest path from the robot to the cell of ``goal``, meters, through
+        each cell's clear point."""
+        cells = path_to(self.parent, self.cell(goal))
+        path = self.origin + self.resolution * cells + self.offset[cells[:, 1], cells[:, 0]]
         path[0] = self.here
         return path
 

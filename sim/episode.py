@@ -131,8 +131,8 @@ class Evaluator:
     map entropy over the world's extent, and ROC AUC over the observed cells (``mapping.metrics``'
     definitions)."""
 
-    def __init__(self, world: World, start_xy, radius: float):
-        self.reachable = world.reachable(start_xy, radius)
+    def __init__(self, world: World, start_xy, radius: float, margin: float = 0.0):
+        self.reachable = world.reachable(start_xy, radius, margin)
         self.cells = np.nonzero(self.reachable)                       # (iy, ix)
         self.free_xy = world.center_of(np.column_stack(self.cells[::-1]))
         self.world = world
@@ -240,7 +240,10 @@ def run_episode(world: World, start: gtsam.Pose2, config: EpisodeConfig | None =
     odometry = Odometry(c.odometry, seed=odom_seed, start=start)
     stack = Stack(c.stack, seed=int(stack_seed.generate_state(1)[0]),
                   speed_limits=(c.robot.max_speed, c.robot.max_turn_rate))
-    evaluator = Evaluator(world, (start.x(), start.y()), c.robot.radius)
+    explorer = c.stack.explorer
+    # both methods are scored on the space a robot keeping the planners' margin reaches
+    evaluator = Evaluator(world, (start.x(), start.y()), c.robot.radius,
+                          max(explorer.costmap.margin, explorer.grid_costmap.margin))
     result = EpisodeResult(metrics={}, stack=stack, config=c, world=world)
     curve = CurveRecorder(evaluator, robot, c.metrics_every, result.curve)
     recorder = FrameRecorder(c.animate_every) if c.animate_every else None

@@ -120,15 +120,21 @@ class World:
         out[inside] = self.clearance()[cells[inside][:, 1], cells[inside][:, 0]]
         return out
 
-    def reachable(self, start_xy, radius: float) -> np.ndarray:
-        """(h, w) bool: cells a disc robot of ``radius`` meters can reach from ``start_xy``.
+    def reachable(self, start_xy, radius: float, margin: float = 0.0) -> np.ndarray:
+        """(h, w) bool: cells a disc robot of ``radius`` meters can reach from ``start_xy``
+        through no gap narrower than its diameter plus ``margin`` on each side.
 
-        A flood fill (4-connected) over the cells whose clearance is at least ``radius``.
+        A flood fill (4-connected) over the cells whose clearance is at least ``radius +
+        margin``, from the start's cell, then the cells of clearance at least ``radius`` in
+        the same free space within ``margin`` (and a cell) of them: the robot's centre goes
+        there too, beside a wall, but a passage that leaves it less than ``margin`` to spare
+        is not one it takes (a planner keeps that margin against range noise).
 
         Raises:
             ValueError: if the start itself is not free for the robot.
         """
-        free = self.clearance() >= radius
+        clearance = self.clearance()
+        free = clearance >= radius
         cell = self.cell_of(np.asarray(start_xy, dtype=float))
         if not self.contains(cell) or not free[cell[1], cell[0]]:
             raise ValueError(
@@ -136,4 +142,12 @@ class World:
                 f"radius {radius} m"
             )
         labels, _ = ndimage.label(free)
-        return labels == labels[cell[1], cell[0]]
+        region = labels == labels[cell[1], cell[0]]
+        if margin <= 0:
+            return region
+        wide, _ = ndimage.label(clearance >= radius + margin)
+        core = wide == wide[cell[1], cell[0]] if wide[cell[1], cell[0]] else np.zeros_like(region)
+        core[cell[1], cell[0]] = True
+        rx, ry = self.resolution
+        near = ndimage.distance_transform_edt(~core, sampling=(ry, rx)) <= margin + max(rx, ry)
+        return region & near

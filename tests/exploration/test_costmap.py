@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 from scipy import ndimage
+from scipy.spatial import cKDTree
 
 from exploration.costmap import CostmapConfig, classify, passable
 from exploration.explorer import Explorer, ExplorerConfig
@@ -25,7 +26,7 @@ def room(n=100):
 def test_planner_never_enters_occupied_or_unknown_space():
     prob = room()
     config = CostmapConfig()
-    ok, _ = passable(prob, 0.1, 0.25, config)
+    ok, _, _ = passable(prob, 0.1, 0.25, config)
     free, occupied = classify(prob, config)
     dist, parent = distance_field(ok, (30, 50), 0.1)
     path = path_to(parent, (70, 50))
@@ -41,7 +42,7 @@ def test_door_narrower_than_the_robot_blocks_the_path():
     prob = room()
     prob[45:55, 50] = 0.9
     prob[49:51, 50] = 0.1  # a 0.2 m door
-    ok, _ = passable(prob, 0.1, 0.25, CostmapConfig())
+    ok, _, _ = passable(prob, 0.1, 0.25, CostmapConfig())
     dist, _ = distance_field(ok, (30, 50), 0.1)
     assert np.isinf(dist[50, 70])
 
@@ -50,16 +51,53 @@ def test_clearance_is_measured_to_the_hits_not_their_cells():
     """A 0.85 m door (x = 5.0 m, y in [4.0, 4.85] m) in a wall the map left free (Λ = 0.1, as a
     COM's fused map can be near a wall seen once): only the hits, points along the wall's face
     outside the door, block it. A 0.25 m robot with the 0.05 m margin needs more than 0.3 m
-    from each jamb: y in (4.3, 4.55), the cells centred at 4.4 and 4.5 m. Counted from the
-    hits' 0.1 m cells (jamb cells centred at 3.95 and 4.85 m, less half a cell), only the
-    4.4 m row would remain."""
+    from each jamb: y in (4.3, 4.55), the cells centred at 4.4 and 4.5 m (cells clear only off
+    their centre, 4.3 and 4.6, are not needed to pass). Counted from the hits' 0.1 m cells
+    (jamb cells centred at 3.95 and 4.85 m, less half a cell), only the 4.4 m row would
+    remain."""
     res, radius = 0.1, 0.25
     prob = np.full((100, 100), 0.1)
     ys = np.r_[np.linspace(0.0, 4.0, 201), np.linspace(4.85, 9.9, 253)]
     hits = np.column_stack([np.full_like(ys, 5.0), ys])
-    ok, _ = passable(prob, res, radius, CostmapConfig(unknown_clearance=0.0, margin=0.05), hits)
+    ok, _, _ = passable(prob, res, radius, CostmapConfig(unknown_clearance=0.0, margin=0.05), hits)
     np.testing.assert_allclose(res * np.flatnonzero(ok[:, 50]), [4.4, 4.5])  # cells at x = 5.0 m
     assert ok[44, 5:-5].all() and ok[45, 5:-5].all()     # the robot crosses the wall there
+
+
+def test_a_wall_rim_clear_only_off_the_cell_centres_is_not_passable():
+    """A wall along x = 5.03 m: the cells centred at x = 4.8 m are 0.23 m from it at their
+    centre, and clear of 0.27 m (a 0.25 m robot, 0.02 m margin) only on their far side. They
+    join no two regions, so paths do not hug the wall through them; the cells at 4.7 m are
+    clear at their centre. An exhaustive 41 x 41 sampling of a rim cell says it has clear
+    points."""
+    res, radius = 0.1, 0.25
+    prob = np.full((100, 100), 0.1)
+    ys = np.linspace(0.0, 9.9, 991)
+    hits = np.column_stack([np.full_like(ys, 5.03), ys])
+    ok, _, offset = passable(prob, res, radius, CostmapConfig(unknown_clearance=0.0), hits)
+    u = np.linspace(-res / 2, res / 2, 41)
+    samples = np.array([4.8, 5.0]) + np.stack(np.meshgrid(u, u), axis=-1).reshape(-1, 2)
+    assert (cKDTree(hits).query(samples)[0] > radius + 0.02).any()
+    assert not ok[10:90, 48].any() and ok[10:90, 47].all()
+    assert not offset[:, 48].any()
+
+
+def test_a_door_with_no_clear_cell_centre_is_passed_through_its_clear_points():
+    """A 0.56 m door (y in [4.04, 4.60] m) in a wall along x = 5.0 m: a 0.25 m robot with the
+    0.02 m margin fits in the 2 cm between 4.31 and 4.33 m, where no 0.1 m cell centre lies.
+    The path from one side to the other passes the door at clear points; through the cell
+    centres alone there is none."""
+    res, radius = 0.1, 0.25
+    prob = np.full((100, 100), 0.1)
+    ys = np.r_[np.linspace(0.0, 4.04, 405), np.linspace(4.60, 9.9, 531)]
+    hits = np.column_stack([np.full_like(ys, 5.0), ys])
+    ok, _, offset = passable(prob, res, radius, CostmapConfig(unknown_clearance=0.0), hits)
+    dist, parent = distance_field(ok, (30, 43), res)
+    cells = path_to(parent, (70, 43))
+    assert np.isfinite(dist[43, 70])
+    points = res * cells + offset[cells[:, 1], cells[:, 0]]
+    assert cKDTree(hits).query(points)[0].min() > radius + 0.02
+    assert np.isinf(distance_field(ok & (np.linalg.norm(offset, axis=-1) == 0), (30, 43), res)[0][43, 70])
 
 
 def test_bad_thresholds_are_rejected():
@@ -96,7 +134,7 @@ def test_paths_keep_off_walls_where_there_is_room_and_still_pass_a_door():
     prob[:, 50] = 0.9
     prob[6:14, 50] = 0.1                                                 # door: y in [0.6, 1.4)
     config = CostmapConfig(near_wall_cost=2.0)
-    ok, cost = passable(prob, res, 0.25, config)
+    ok, cost, _ = passable(prob, res, 0.25, config)
     assert cost.min() == 1.0 and cost.max() == pytest.approx(1.0 + config.near_wall_cost)
     start, goal = (20, 20), (80, 20)
     dist, parent = distance_field(ok, start, res, cost)

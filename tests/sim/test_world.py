@@ -23,6 +23,24 @@ def test_reachable_respects_the_robot_radius():
     assert not reach[50, 48] and reach[50, 46]
 
 
+def test_a_gap_that_leaves_less_than_the_margin_is_not_reachable():
+    """A 0.6 m gap on 0.05 m cells (a wall at x in [5, 5.05)): a 0.25 m robot fits with 5 cm to
+    spare, so with a 0.02 m margin the far side is reachable, with 0.06 m it is not. Beside the
+    wall, cells with clearance between the radius and radius + margin count (the robot's centre
+    goes there), as without a margin."""
+    grid = np.zeros((200, 200), dtype=bool)
+    grid[:, 100] = True
+    grid[94:106, 100] = False                                   # y in [4.7, 5.3)
+    world = World(grid, (0.05, 0.05))
+    plain = world.reachable((2.0, 5.0), 0.25)
+    assert plain[100, 160]
+    assert (world.reachable((2.0, 5.0), 0.25, 0.02) == plain).all()
+    tight = world.reachable((2.0, 5.0), 0.25, 0.06)
+    assert not tight[100, 160] and tight[100, 40]
+    # x = 0.275 m: 0.275 m from the map's edge, between 0.25 and 0.25 + 0.06
+    assert tight[40, 5] and plain[40, 5] and not plain[40, 4]
+
+
 def test_reachable_from_a_blocked_start_is_an_error():
     with pytest.raises(ValueError, match="not free"):
         wall_with_gap(1.0).reachable((5.05, 2.0), radius=0.25)
