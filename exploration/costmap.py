@@ -154,6 +154,35 @@ def _clearest_points(tree: cKDTree, centres: np.ndarray, resolution: float, boun
     return best - centres, clearance
 
 
+def driven(trail: np.ndarray, resolution: float, origin, shape, max_step: float = 1.0):
+    """The cells the robot's centre crossed along ``trail`` (k, 2), its past positions in
+    order (meters; a step longer than ``max_step`` m, a jump of the estimate, is left out),
+    each with the crossing point nearest to its centre.
+
+    Returns:
+        cells: (n, 2) (ix, iy) on the (h, w) ``shape`` grid whose cell (0, 0)'s centre is at
+            ``origin``; offset: (n, 2) meters from each cell's centre to that point.
+    """
+    trail = np.asarray(trail, float).reshape(-1, 2)
+    a, b = trail[:-1], trail[1:]
+    length = np.linalg.norm(b - a, axis=1)
+    a, b, length = a[length <= max_step], b[length <= max_step], length[length <= max_step]
+    count = np.ceil(length / (resolution / 4)).astype(int) + 1
+    step = np.repeat(np.arange(len(a)), count)
+    t = (np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)) / np.repeat(
+        np.maximum(count - 1, 1), count)
+    points = a[step] + t[:, None] * (b - a)[step]
+    cells = np.round((points - np.asarray(origin, float)) / resolution).astype(int)
+    offset = points - (np.asarray(origin, float) + resolution * cells)
+    h, w = shape
+    inside = (cells[:, 0] >= 0) & (cells[:, 0] < w) & (cells[:, 1] >= 0) & (cells[:, 1] < h)
+    cells, offset = cells[inside], offset[inside]
+    order = np.lexsort([np.linalg.norm(offset, axis=1), cells[:, 1] * w + cells[:, 0]])
+    cells, offset = cells[order], offset[order]
+    first = np.r_[True, np.any(np.diff(cells, axis=0) != 0, axis=1)][:len(cells)]
+    return cells[first], offset[first]
+
+
 def wall_cost(to_occupied: np.ndarray, radius: float, config: CostmapConfig) -> np.ndarray:
     """(h, w) cost per meter: 1 + ``near_wall_cost`` at ``radius + margin`` meters from an
     occupied cell, falling linearly to 1 at ``preferred_clearance``."""

@@ -198,9 +198,10 @@ class Stack:
         return self.plan
 
     def snapshot(self) -> MapSnapshot:
-        """The map as the explorer reads it, with the costmap grid's free space and hits when
-        the map is not that grid (resampled onto the map's cells)."""
-        snapshot = self.map.snapshot()
+        """The map as the explorer reads it, with the robot's trail, and with the costmap
+        grid's free space and hits when the map is not that grid (resampled onto the map's
+        cells)."""
+        snapshot = dataclasses.replace(self.map.snapshot(), trail=self.trail())
         if self.costmap is self.map:
             return snapshot
         frame = self.map.frame
@@ -209,6 +210,11 @@ class Stack:
         centres = frame.origin + frame.resolution * np.stack([xx, yy], axis=-1)
         traversable = self.costmap.frame.sample(self.costmap.prob(), centres)
         return dataclasses.replace(snapshot, hits=self.costmap.hits(), traversable=traversable)
+
+    def trail(self) -> np.ndarray:
+        """(k, 2) where the robot's centre has been: the base at each mapped scan, as
+        corrected now, meters."""
+        return positions([self.localiser.pose(i) for i, _ in self._mapped])
 
     def regenerate(self) -> None:
         """Relearn the map from every mapped scan at its corrected pose (Section VII)."""

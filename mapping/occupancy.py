@@ -33,6 +33,10 @@ class MapSnapshot:
     instead of ``prob``: the stack fills it, on the same cells, from its log-odds costmap grid
     when the map is a COM, whose smoothing closes doors a robot fits through; ``hits`` are then
     that grid's.
+
+    ``trail`` (k, 2), when given, is where the robot's centre has been, in order (its mapped
+    poses as corrected now), meters: the way it came is a way back, whatever the map's noise
+    makes of a narrow door it passed.
     """
 
     prob: np.ndarray
@@ -41,6 +45,7 @@ class MapSnapshot:
     resolution: float
     hits: np.ndarray | None = None
     traversable: np.ndarray | None = None
+    trail: np.ndarray | None = None
 
 
 class OccupancyMap(Protocol):

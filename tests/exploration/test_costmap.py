@@ -7,7 +7,7 @@ from pydantic import ValidationError
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from exploration.costmap import CostmapConfig, classify, passable
+from exploration.costmap import CostmapConfig, classify, driven, passable
 from exploration.explorer import Explorer, ExplorerConfig
 from exploration.grid_frontier import grid_frontiers
 from exploration.paths import distance_field, path_to
@@ -151,3 +151,20 @@ def test_paths_keep_off_walls_where_there_is_room_and_still_pass_a_door():
     hug = path_to(parent, goal)
     assert to_wall[hug[:, 1], hug[:, 0]][np.abs(hug[:, 0] - 50) > 4].min() < config.preferred_clearance - 0.05
     assert shortest[goal[1], goal[0]] < dist[goal[1], goal[0]]
+
+
+def test_driven_cells_are_those_the_trail_crosses_at_their_nearest_point():
+    """A trail from (1.0, 1.0) to (2.0, 1.0), then (2.0, 1.5), then a 3 m jump: the cells it
+    crosses are x 1.0-2.0 at y 1.0 and y 1.0-1.5 at x 2.0, each at its own centre; the jump
+    adds none."""
+    cells, offset = driven(np.array([[1.0, 1.0], [2.0, 1.0], [2.0, 1.5], [5.0, 1.5]]), 0.1,
+                           (0.0, 0.0), (50, 80))
+    expected = {(ix, 10) for ix in range(10, 21)} | {(20, iy) for iy in range(10, 16)}
+    assert {tuple(c) for c in cells} == expected
+    np.testing.assert_allclose(offset, 0.0, atol=1e-9)
+    # off the cell centres: y = 1.03, the point nearest each centre is 3 cm above it
+    cells, offset = driven(np.array([[1.0, 1.03], [2.0, 1.03]]), 0.1, (0.0, 0.0), (50, 80))
+    assert {tuple(c) for c in cells} == {(ix, 10) for ix in range(10, 21)}
+    np.testing.assert_allclose(offset[:, 1], 0.03, atol=1e-9)
+    assert np.abs(offset[:, 0]).max() <= 0.0125 + 1e-9
+    assert len(driven(np.zeros((1, 2)), 0.1, (0.0, 0.0), (50, 80))[0]) == 0

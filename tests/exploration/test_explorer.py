@@ -1,5 +1,7 @@
 """The explorer's goal choice and goal keeping on synthetic maps (both methods)."""
 
+import dataclasses
+
 import gtsam
 import numpy as np
 import pytest
@@ -347,3 +349,28 @@ def test_stop_fires_on_an_observed_room_with_remnant_texture():
     assert Explorer(config.model_copy(update={"min_gain": 0.0})).plan(snapshot, ROBOT).goal is not None
     plan = Explorer(config).plan(snapshot, ROBOT)
     assert plan.goal is None and plan.done == "frontiers_exhausted"
+
+
+def test_the_way_the_robot_came_is_a_way_back_through_a_door_the_map_narrowed():
+    """The right door's hits leave 0.5 m between its jambs (y 3.75 and 4.25 m): less than the
+    0.54 m a 0.25 m robot with the 0.02 m margin asks, as range noise and pose error make of a
+    door the robot passed with a centimetre to spare. Without its trail, no goal in or past the
+    wall (x from 7.95 m) is reachable; with the trail of its drive in through the door at
+    y = 4.0 m, the goal is, and the path into the wall runs on the trail."""
+    snapshot = room([("right", *DOOR, 10)])
+    for rows in (slice(DOOR[0], 38), slice(43, DOOR[1])):          # the door: rows 38-42
+        snapshot.prob[rows, 80:82] = WALL
+        snapshot.prob_occ[rows, 80:82] = WALL
+    iy, ix = np.nonzero(snapshot.prob == WALL)
+    jambs = [(x, y) for x in np.linspace(7.95, 8.15, 5) for y in (3.75, 4.25)]
+    hits = np.vstack([RES * np.column_stack([ix, iy]), jambs])
+    hits = hits[~((hits[:, 0] > 7.9) & (hits[:, 1] > 3.75) & (hits[:, 1] < 4.25))]
+    blind = dataclasses.replace(snapshot, hits=hits)
+    plan = Explorer(ExplorerConfig()).plan(blind, ROBOT)
+    assert plan.goal is None or plan.goal[0] < 7.95
+
+    trail = np.column_stack([np.linspace(9.0, 3.5, 23), np.full(23, 4.0)])   # keyframes 0.25 m apart
+    plan = Explorer(ExplorerConfig()).plan(dataclasses.replace(blind, trail=trail), ROBOT)
+    assert plan.new_goal and plan.goal[0] > 7.95
+    crossing = plan.path[plan.path[:, 0] > 7.9]
+    assert len(crossing) and np.abs(crossing[:, 1] - 4.0).max() < 1e-9
