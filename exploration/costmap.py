@@ -79,32 +79,36 @@ def passable(prob: np.ndarray, resolution: float, radius: float, config: Costmap
     """
     free, occupied = classify(prob, config)
     offset = np.zeros(prob.shape + (2,))
+    clear = radius + config.margin
+    room = free & (_distance_to(~free & ~occupied, resolution) > config.unknown_clearance)
+    to_occupied = np.zeros(prob.shape)
     if hits is None:
         to_occupied = _distance_to(occupied, resolution) - resolution / 2
-    else:
-        to_occupied = np.zeros(prob.shape)
-        iy, ix = np.nonzero(free)
-        if len(hits):
-            tree = cKDTree(hits)
-            bound = max(config.preferred_clearance, radius + config.margin + resolution)
-            centres = np.asarray(origin, float) + resolution * np.column_stack([ix, iy])
-            to_occupied[iy, ix] = tree.query(centres, distance_upper_bound=bound)[0]
-            # cells whose centre is not clear but some point of the cell may be (1-Lipschitz)
-            near = ((to_occupied[iy, ix] <= radius + config.margin)
-                    & (to_occupied[iy, ix] > radius + config.margin - resolution / math.sqrt(2)))
-            shift, clearance = _clearest_points(tree, centres[near], resolution, bound)
-            to_occupied[iy[near], ix[near]] = clearance
-            offset[iy[near], ix[near]] = shift
-        else:
-            to_occupied[iy, ix] = np.inf
-    ok = (free & (to_occupied > radius + config.margin)
-          & (_distance_to(~free & ~occupied, resolution) > config.unknown_clearance))
-    off_centre = ok & np.any(offset != 0, axis=-1)
-    ok &= ~off_centre | _links(ok & ~off_centre, off_centre)
-    offset[~ok] = 0.0
+    elif not len(hits):
+        to_occupied[free] = np.inf
+    if hits is None or not len(hits):
+        return room & (to_occupied > clear), wall_cost(to_occupied, radius, config), offset
+    tree = cKDTree(hits)
+    bound = max(config.preferred_clearance, clear + resolution)
+    origin = np.asarray(origin, float)
+    iy, ix = np.nonzero(free)
+    to_occupied[iy, ix] = tree.query(origin + resolution * np.column_stack([ix, iy]),
+                                     distance_upper_bound=bound)[0]
+    ok = room & (to_occupied > clear)
+    # cells whose centre is not clear, but a point of which may be (clearance is 1-Lipschitz),
+    # where they could join two regions of centre-clear cells: searched for that point
+    maybe = room & ~ok & (to_occupied > clear - resolution / math.sqrt(2))
+    iy, ix = np.nonzero(maybe & _links(ok, maybe))
+    shift, clearance = _clearest_points(tree, origin + resolution * np.column_stack([ix, iy]),
+                                        resolution, bound)
+    to_occupied[iy, ix], offset[iy, ix] = clearance, shift
+    off_centre = np.zeros_like(ok)
+    off_centre[iy, ix] = clearance > clear
+    off_centre &= _links(ok, off_centre)
+    offset[~off_centre] = 0.0
     cost = wall_cost(to_occupied, radius, config)
     cost[off_centre] *= config.off_centre_cost
-    return ok, cost, offset
+    return ok | off_centre, cost, offset
 
 
 _EIGHT = np.ones((3, 3), dtype=bool)

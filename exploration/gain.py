@@ -5,6 +5,9 @@ to remnants (a few unknown cells in a corner, a speck behind furniture)."""
 
 from __future__ import annotations
 
+import math
+
+import numba
 import numpy as np
 
 from mapping.metrics import KNOWN
@@ -14,17 +17,32 @@ def visible_unknown_area(prob: np.ndarray, origin, resolution: float, at, sensor
                          occupied_above: float, rays: int = 360) -> float:
     """Area (m²) of the unknown cells (``|prob - 0.5| <= KNOWN``, and every cell off the map)
     that ``rays`` rays from ``at`` (2,) (m) cross before an occupied cell (``prob`` above
-    ``occupied_above``) or ``sensor_range`` meters. ``prob`` (h, w) has cell (0, 0)'s centre
-    at ``origin`` (2,), meters."""
-    theta = np.linspace(0.0, 2 * np.pi, rays, endpoint=False)
-    steps = np.arange(0.5, sensor_range / resolution * 2 + 1) * resolution / 2      # half cells
-    xy = np.asarray(at, float) + steps[None, :, None] * np.stack([np.cos(theta), np.sin(theta)], -1)[:, None, :]
-    cells = np.round((xy - np.asarray(origin, float)) / resolution).astype(np.int64)   # (rays, n, 2)
+    ``occupied_above``) or ``sensor_range`` meters, each ray sampled every half cell.
+    ``prob`` (h, w) has cell (0, 0)'s centre at ``origin`` (2,), meters."""
+    half = int(math.ceil(sensor_range / resolution)) + 1          # cells: the window's half side
+    start = (np.asarray(at, float) - np.asarray(origin, float)) / resolution
+    seen = np.zeros((2 * half + 1, 2 * half + 1), dtype=np.bool_)
+    _cast(np.ascontiguousarray(prob, dtype=np.float64), start[0], start[1],
+          sensor_range / resolution, occupied_above, KNOWN, rays, half, seen)
+    return float(seen.sum() * resolution**2)
+
+
+@numba.njit(cache=True)
+def _cast(prob, x, y, reach, occupied_above, known, rays, half, seen):
+    """Mark in ``seen`` (a window of ``half`` cells about the start's cell) the unknown cells
+    the rays from (``x``, ``y``) (cells) cross, each until its first occupied cell or ``reach``
+    cells."""
     h, w = prob.shape
-    inside = (cells[..., 0] >= 0) & (cells[..., 0] < w) & (cells[..., 1] >= 0) & (cells[..., 1] < h)
-    value = np.full(inside.shape, 0.5)
-    value[inside] = prob[cells[..., 1][inside], cells[..., 0][inside]]
-    blocked = np.cumsum(value > occupied_above, axis=1) > 0          # at and past the first wall
-    seen = ~blocked & (np.abs(value - 0.5) <= KNOWN)
-    unknown = np.unique(cells[seen][:, 0] * (2**31) + cells[seen][:, 1])
-    return float(len(unknown) * resolution**2)
+    cx, cy = int(round(x)), int(round(y))
+    steps = int(reach * 2.0 + 1.0)
+    for k in range(rays):
+        theta = 2.0 * math.pi * k / rays
+        dx, dy = math.cos(theta), math.sin(theta)
+        for j in range(steps):
+            t = (j + 0.5) * 0.5
+            ix, iy = int(round(x + t * dx)), int(round(y + t * dy))
+            value = prob[iy, ix] if 0 <= ix < w and 0 <= iy < h else 0.5
+            if value > occupied_above:
+                break
+            if abs(value - 0.5) <= known:
+                seen[iy - cy + half, ix - cx + half] = True
