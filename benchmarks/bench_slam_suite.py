@@ -1,7 +1,7 @@
 """Pose SLAM on every log in the shared data: one row per log, the worst case beside the mean.
 
     OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 python benchmarks/bench_slam_suite.py
-        [--logs NAME ...] [--perturb 5] [--seed 0]
+        [--logs NAME ...] [--perturb 5] [--seed 0] [--config SLAM.toml]
 
 Prints, never asserts, per log: scans, keyframes and loop closures; the real-time factor of
 Pose SLAM and its wall time against the scan-matching front end alone (loop closing off) in the
@@ -10,7 +10,8 @@ matched by scan order (RMSE, p95, max, heading RMSE: GMapping's maps are good, b
 truth); for MIT CSAIL, the Kümmerle relation error (mean, short/long, p95, max). With
 ``--perturb N``, N more replays with the ranges perturbed by seeded 1 mm Gaussian noise: the
 largest trajectory RMSE between a perturbed replay and the clean one, and the spread (max − min)
-of their agreement with GMapping. A crash is a row too, with its error.
+of their agreement with GMapping. A crash is a row too, with its error. ``--config`` replays with a
+Pose SLAM configuration file (TOML or YAML, the fields of ``SlamConfig``) instead of the defaults.
 
 Targets (issue 12): 0 crashes; agreement RMSE ≤ 0.10 m and max ≤ 0.5 m on each corrected log;
 CSAIL ≤ 0.025 m / 0.33° mean, worst relation ≤ 0.3 m; perturbed replays within 0.05 m; on
@@ -31,6 +32,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from sim.config_file import read_config  # noqa: E402
 from sim.data import benchmark_data_dir  # noqa: E402
 from sim.logs import replay_log  # noqa: E402
 from slam.agreement import agreement  # noqa: E402
@@ -62,12 +64,12 @@ def perturbed(log: CarmenLog, sigma: float, seed: int) -> CarmenLog:
     return copy
 
 
-def row(path: Path, relations_dir: Path, perturb: int, seed: int) -> str:
+def row(path: Path, relations_dir: Path, perturb: int, seed: int, config: SlamConfig) -> str:
     log = CarmenLog(path)
-    no_loops = SlamConfig()
+    no_loops = config.model_copy(deep=True)
     no_loops.loop_closure.enabled = False
     front = replay_log(log, no_loops)
-    full = replay_log(log)
+    full = replay_log(log, config)
     m = replay_metrics(log, full)
     rtf = m["real_time_factor"]
     out = [f"{path.name}: {len(log)} scans, {m['keyframes']} keyframes, {m['loop_closures']} loops "
@@ -91,7 +93,7 @@ def row(path: Path, relations_dir: Path, perturb: int, seed: int) -> str:
                  for k in ("all", "short_lt_5s", "long_ge_5s")]
         out.append(f"  relations: {' | '.join(parts)}; p95 {e['all']['trans_p95_m']:.3f} m, "
                    f"max {e['all']['trans_max_m']:.3f} m")
-        slam = PoseSlam()
+        slam = PoseSlam(config)
         injected = inject_false_loops(slam, rate=FALSE_LOOP_RATE, seed=seed)
         dirty = replay_log(log, slam=slam)
         d = relation_error(read_relations(relations), dirty.stamps, dirty.trajectory,
@@ -103,7 +105,7 @@ def row(path: Path, relations_dir: Path, perturb: int, seed: int) -> str:
     if perturb:
         between, against = [], []
         for k in range(perturb):
-            other = replay_log(perturbed(log, 0.001, seed + k))
+            other = replay_log(perturbed(log, 0.001, seed + k), config)
             between.append(agreement(other.trajectory, full.trajectory)["rmse_m"])
             if corrected:
                 against.append(agreement(other.trajectory, [r.pose for r in log])["rmse_m"])
@@ -119,7 +121,9 @@ def main() -> None:
     parser.add_argument("--logs", nargs="*", help="logs whose file names start with these (default: every log)")
     parser.add_argument("--perturb", type=int, default=5, help="replays with 1 mm range noise per log")
     parser.add_argument("--seed", type=int, default=0, help="seed of the first perturbed replay")
+    parser.add_argument("--config", type=Path, help="Pose SLAM configuration file (default: the defaults)")
     args = parser.parse_args()
+    config = read_config(args.config, SlamConfig) if args.config else SlamConfig()
     data = benchmark_data_dir()
     paths = sorted(p for p in (data / "logs").iterdir() if p.name.endswith((".clf", ".log", ".gz")))
     if args.logs:
@@ -128,7 +132,7 @@ def main() -> None:
     for path in paths:
         tic = time.perf_counter()
         try:
-            print(row(path, data / "relations", args.perturb, args.seed), flush=True)
+            print(row(path, data / "relations", args.perturb, args.seed, config), flush=True)
         except Exception:                                   # a crash is a result here
             crashes += 1
             print(f"{path.name}: CRASH\n{traceback.format_exc()}", flush=True)

@@ -24,6 +24,11 @@ class RegistrationConfig(_Config):
     max_correspondence: float = Field(0.3, gt=0, description="point-to-line gate (m)")
     inlier_distance: float = Field(0.1, gt=0, description="a point within this of the map is an inlier (m)")
     normal_max_gap: float = Field(0.3, gt=0, description="neighbouring beams farther apart give no normal (m)")
+    normal_min_incidence_deg: float | None = Field(
+        None, gt=0, lt=90, description="when set (λ, deg), neighbouring beams Δφ apart may also be "
+        "farther apart by r·sin Δφ / sin(λ − Δφ), their spacing on a surface seen at incidence λ from "
+        "range r (an adaptive breakpoint, Borges & Aldon 2004): walls seen obliquely far down a "
+        "corridor keep their normals and observe the heading; None: the fixed normal_max_gap alone")
     min_sigma: float = Field(0.01, gt=0, description="floor of the residual standard deviation (m)")
     degenerate_eigenvalue: float = Field(0.03, ge=0, le=0.5,
                                          description="translation directions whose normalised point-to-line "

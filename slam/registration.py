@@ -16,16 +16,32 @@ from slam.config import RegistrationConfig
 from slam.kiss_icp_adapter import Icp, VoxelMap, matrix_pose, pose_matrix, voxel_down_sample
 
 
-def scan_normals(points: np.ndarray, max_gap: float) -> np.ndarray:
+def scan_normals(points: np.ndarray, max_gap: float, min_incidence_deg: float | None = None) -> np.ndarray:
     """(m, 2) unit normals of beam-ordered points from their ±2 neighbours; NaN where the
-    neighbours are missing or farther than ``max_gap`` (a jump edge)."""
+    neighbours are missing or farther apart than the gap allowed (a jump edge).
+
+    The gap allowed between neighbours is ``max_gap`` (m); with ``min_incidence_deg`` (λ) it grows
+    by the spacing of two beams Δφ apart on a surface seen at incidence λ from the nearer range r,
+    r·sin Δφ / sin(λ − Δφ) (the adaptive breakpoint of Borges & Aldon 2004), so a wall seen
+    obliquely far down a corridor keeps its normals. That needs ``points`` in the sensor's frame
+    (the laser at the origin); the fixed gap alone holds in any frame.
+    """
     m = len(points)
     normals = np.full((m, 2), np.nan)
     if m < 5:
         return normals
     gaps = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    limit = np.full(m - 1, float(max_gap))
+    if min_incidence_deg is not None:
+        incidence = np.radians(min_incidence_deg)
+        bearing = np.arctan2(points[:, 1], points[:, 0])
+        step = np.abs(np.angle(np.exp(1j * np.diff(bearing))))
+        nearer = np.minimum(np.linalg.norm(points[:-1], axis=1), np.linalg.norm(points[1:], axis=1))
+        oblique = step < incidence
+        limit[oblique] += nearer[oblique] * np.sin(step[oblique]) / np.sin(incidence - step[oblique])
+    close = gaps < limit
     ok = np.zeros(m, bool)
-    ok[2:-2] = (gaps[:-3] < max_gap) & (gaps[1:-2] < max_gap) & (gaps[2:-1] < max_gap) & (gaps[3:] < max_gap)
+    ok[2:-2] = close[:-3] & close[1:-2] & close[2:-1] & close[3:]
     tangent = points[4:] - points[:-4]
     length = np.linalg.norm(tangent, axis=1)
     ok[2:-2] &= length > 1e-6

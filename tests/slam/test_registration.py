@@ -55,6 +55,55 @@ def test_corridor_is_degenerate_and_follows_the_odometry_prior():
     assert math.sqrt(match.covariance[0, 0]) > 5 * math.sqrt(match.covariance[1, 1])
 
 
+def test_adaptive_breakpoint_keeps_normals_of_an_oblique_wall_but_not_across_a_jump():
+    """A wall 1.5 m to the left up to x = 4 m, then a recess to 3.5 m, seen by a 1° laser from the
+    origin. Two hits Δφ apart on a wall met at incidence a lie r·sin Δφ / sin a apart (r the nearer
+    range): on the far wall every gap exceeds 0.3 m, so the fixed gap gives its hits no normal and
+    the heading loses the wall; with λ = 10° every hit whose ±2 neighbours meet the wall at λ or
+    more keeps the wall's normal, and the jump to the recess still breaks the surface."""
+    near, far, end, step, incidence = 1.5, 3.5, 4.0, math.radians(1.0), 10.0
+    scan = cast(gtsam.Pose2(), [(1, near, 0.0, end), (1, far, end, 40.0)], n=181, max_range=80.0)
+    points = scan.points()
+    bearing = np.arctan2(points[:, 1], points[:, 0])
+    on_far = np.isclose(points[:, 1], far)
+    gap = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    assert gap[on_far[:-1] & on_far[1:]].min() > 0.3
+    fixed = scan_normals(points, 0.3)
+    adaptive = scan_normals(points, 0.3, incidence)
+    assert np.all(np.isnan(fixed[on_far]))
+    jump = int(np.flatnonzero(on_far)[-1])                 # the last far hit, next to the near wall
+    inner = on_far & (bearing - 2 * step >= math.radians(incidence))
+    inner[jump - 1:jump + 3] = False
+    assert inner.sum() >= 5
+    assert np.all(np.abs(adaptive[inner, 1]) > 0.9999)
+    assert np.all(np.isnan(adaptive[jump - 1:jump + 3]))   # ±2 neighbours straddle the jump
+    assert np.all(np.isnan(adaptive[on_far & (bearing + 2 * step < math.radians(incidence))]))
+    near_wall = np.flatnonzero(np.isclose(points[:, 1], near))[2:-2]
+    assert np.array_equal(np.isnan(fixed[near_wall, 0]), np.isnan(adaptive[near_wall, 0]))
+
+
+def test_corridor_walls_seen_only_far_ahead_give_the_heading_with_the_adaptive_breakpoint():
+    """A 4 m wide corridor whose walls start 6 m ahead of a 1° laser: their hits lie more than 0.3 m
+    apart, so with the fixed gap no submap point has a normal and the match has no information
+    (a dozen hits per wall: the test lets 10 points make a match);
+    with λ = 5° the far walls' normals give the lateral offset and the heading of a scan taken
+    3 cm aside and turned 0.5°, as the exact geometry has them (along the corridor stays open)."""
+    walls = [(1, -2.0, 6.0, 40.0), (1, 2.0, 6.0, 40.0)]
+    reference, truth = gtsam.Pose2(), gtsam.Pose2(0.3, 0.03, math.radians(0.5))
+    points = cast(reference, walls, n=181, max_range=80.0).points()
+    scan = cast(truth, walls, n=181, max_range=80.0).points()
+    config = RegistrationConfig(min_points=10)
+    results = {}
+    for incidence in (None, 5.0):
+        normals = scan_normals(points, config.normal_max_gap, incidence)
+        submap = Submap.from_scans([reference], [points], [normals], config)
+        results[incidence] = Registration(config).refine(scan, submap, gtsam.Pose2(0.3, 0.0, 0.0))
+    assert not results[None].information.any()
+    match = results[5.0]
+    assert abs(match.pose.theta() - truth.theta()) < 0.1 * truth.theta()
+    assert abs(match.pose.y() - truth.y()) < 0.1 * truth.y()
+
+
 def test_voxel_down_sample_keeps_the_first_point_of_each_voxel():
     points = np.random.default_rng(0).uniform(-2.0, 2.0, (400, 2))
     kept = voxel_down_sample(points, 0.5)
