@@ -40,7 +40,8 @@ def leaves(table, prefix=""):
 def test_dump_holds_every_setting_and_loads_back_equal(tmp_path):
     text = dumps_config(EpisodeConfig())
     expected = {prefix + name for prefix, model in sections() for name, field in model.model_fields.items()
-                if not (isinstance(field.annotation, type) and issubclass(field.annotation, BaseModel))}
+                if not (isinstance(field.annotation, type) and issubclass(field.annotation, BaseModel))
+                and field.default is not None}                  # TOML has no null: None is left out
     expected -= {"stack.explorer.robot_radius"}                      # derived from robot.radius
     assert leaves(tomllib.loads(text)) == expected
     assert "# β of eq. 10\nbeta = 2.5" in text                      # descriptions as comments
