@@ -7,9 +7,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 from sklearn.cluster import KMeans
 
 from exploration.paths import Approach, best_cell_near, near_distance
@@ -76,19 +73,6 @@ def utility(mean_value: float, size: int, total: int, distance: float, alpha: fl
     return alpha * mean_value * size / total - math.sqrt(distance)
 
 
-def pieces(points: np.ndarray, labels: np.ndarray, link: float) -> np.ndarray:
-    """(n,) labels 0.. of the clusters ``labels`` (n,) of ``points`` (n, 2) split into their
-    pieces: points of a cluster within ``link`` meters of each other, directly or through
-    others, stay together. k-means joins groups meters apart when few points are left (a
-    remnant beside the robot and a corridor's end across the building); one goal cannot serve
-    both, and the look from the remnant's would judge the corridor insignificant."""
-    pairs = cKDTree(points).query_pairs(link, output_type="ndarray")
-    pairs = pairs[labels[pairs[:, 0]] == labels[pairs[:, 1]]]
-    n = len(points)
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-    return connected_components(graph, directed=False)[1]
-
-
 def extract_goals(frontier: np.ndarray, origin, resolution: float, dist: np.ndarray,
                   config: GoalConfig, blacklist: Blacklist | None = None,
                   seed: int = 0, approach: Approach | None = None) -> list[FrontierCluster]:
@@ -115,9 +99,7 @@ def extract_goals(frontier: np.ndarray, origin, resolution: float, dist: np.ndar
     if len(points) < config.min_points:
         return []
     k = math.ceil(len(points) / config.points_per_cluster)
-    labels = pieces(points, KMeans(n_clusters=k, n_init=1, random_state=seed).fit_predict(points),
-                    config.reach)
-    k = int(labels.max()) + 1
+    labels = KMeans(n_clusters=k, n_init=1, random_state=seed).fit_predict(points)
     # path length to the best reachable cell within reach of each frontier point
     radius = max(1, round(config.reach / resolution))
     near = near_distance(dist, radius)

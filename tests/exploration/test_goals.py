@@ -64,22 +64,3 @@ def test_blacklist_removes_retried_goals():
     again = extract_goals(frontier, (0, 0), 0.1, dist, config, blacklist)
     remaining = np.vstack([c.points for c in again])
     assert len(remaining) == 81 and not blacklist.covers(remaining).any()
-
-
-def test_a_cluster_meters_apart_is_split_into_pieces_each_with_its_goal():
-    """Three frontiers of 20 points, 5 m and more apart, and room for two k-means clusters
-    (points_per_cluster 40): k-means must put points of two of them in one cluster. No cluster
-    spans two frontiers, every frontier point is in one, and each cluster's goal is within
-    reach of its own points."""
-    frontier = np.zeros((100, 100))
-    frontier[20, 20:40] = 1.0            # y 2 m, x in [2, 4) m
-    frontier[80, 20:40] = 1.0            # y 8 m
-    frontier[50, 70:90] = 1.0            # y 5 m, x in [7, 9) m
-    dist, _ = distance_field(np.ones((100, 100), dtype=bool), (10, 10), 0.1)
-    config = GoalConfig(threshold=0.5, points_per_cluster=40, min_points=5)
-    clusters = extract_goals(frontier, (0.0, 0.0), 0.1, dist, config)
-    assert sum(len(k.points) for k in clusters) == 60
-    assert {round(float(k.points[0, 1]), 6) for k in clusters} == {2.0, 5.0, 8.0}
-    for k in clusters:
-        assert np.ptp(k.points[:, 1]) == 0
-        assert np.min(np.linalg.norm(k.points - k.goal, axis=1)) <= config.reach + 1e-9
