@@ -54,7 +54,7 @@ def classify(prob: np.ndarray, config: CostmapConfig):
 
 
 def passable(prob: np.ndarray, resolution: float, radius: float, config: CostmapConfig,
-             hits: np.ndarray | None = None, origin=(0.0, 0.0)):
+             hits: np.ndarray | None = None, origin=(0.0, 0.0), trail: np.ndarray | None = None):
     """Where the robot's centre may go, through which point of each cell, and what a meter of
     path costs there.
 
@@ -67,21 +67,40 @@ def passable(prob: np.ndarray, resolution: float, radius: float, config: Costmap
             hits, clearance is measured from the cell centres to the occupied cells' edges, half
             a cell nearer than their centres (what made a cell occupied may lie anywhere in
             it), which can close a 0.75 m door to a 0.25 m robot.
+        trail: (k, 2) where the robot's centre has been, in order, meters: the known-free
+            cells it crossed are passable at the crossing point, costed as off-centre cells. It
+            passed there, though the map's noise may narrow a door it passed with a centimetre
+            to spare below the clearance asked.
 
     Returns:
         ok: (h, w) bool, known-free cells with a point more than ``radius + margin`` meters from
             any obstacle, more than ``unknown_clearance`` from any unknown cell (off the map
-            counts as unknown).
+            counts as unknown), and the cells of the trail.
         cost: (h, w) ``wall_cost`` of each cell, times ``off_centre_cost`` where only a point
             off the centre is clear, for ``paths.distance_field``.
         offset: (h, w, 2) meters from each cell's centre to that point, where a path through
             the cell should pass (0 where the centre is clear).
     """
     free, occupied = classify(prob, config)
-    offset = np.zeros(prob.shape + (2,))
+    ok, cost, offset = _clear(free, occupied, resolution, radius, config, hits, origin)
+    if trail is not None:
+        cells, through = driven(trail, resolution, origin, prob.shape)
+        add = free[cells[:, 1], cells[:, 0]] & ~ok[cells[:, 1], cells[:, 0]]
+        iy, ix = cells[add, 1], cells[add, 0]
+        ok[iy, ix], offset[iy, ix] = True, through[add]
+        cost[iy, ix] *= config.off_centre_cost
+    return ok, cost, offset
+
+
+def _clear(free: np.ndarray, occupied: np.ndarray, resolution: float, radius: float,
+           config: CostmapConfig, hits: np.ndarray | None,
+           origin) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``passable``'s (ok, cost, offset) from the (h, w) ``free`` and ``occupied`` cells and the
+    hits alone, without the trail."""
+    offset = np.zeros(free.shape + (2,))
     clear = radius + config.margin
     room = free & (_distance_to(~free & ~occupied, resolution) > config.unknown_clearance)
-    to_occupied = np.zeros(prob.shape)
+    to_occupied = np.zeros(free.shape)
     if hits is None:
         to_occupied = _distance_to(occupied, resolution) - resolution / 2
     elif not len(hits):
@@ -176,8 +195,9 @@ def driven(trail: np.ndarray, resolution: float, origin, shape, max_step: float 
     t = (np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)) / np.repeat(
         np.maximum(count - 1, 1), count)
     points = a[step] + t[:, None] * (b - a)[step]
-    cells = np.round((points - np.asarray(origin, float)) / resolution).astype(int)
-    offset = points - (np.asarray(origin, float) + resolution * cells)
+    origin = np.asarray(origin, float)
+    cells = np.round((points - origin) / resolution).astype(int)
+    offset = points - (origin + resolution * cells)
     h, w = shape
     inside = (cells[:, 0] >= 0) & (cells[:, 0] < w) & (cells[:, 1] >= 0) & (cells[:, 1] < h)
     cells, offset = cells[inside], offset[inside]

@@ -16,7 +16,7 @@ import gtsam
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from exploration.costmap import CostmapConfig, classify, driven, passable
+from exploration.costmap import CostmapConfig, passable
 from exploration.frontier_methods import CFrontier, Frontier, GridFrontier, Reachable, evidence
 from exploration.goals import Blacklist, FrontierCluster, GoalConfig
 from exploration.paths import distance_field, near_distance
@@ -140,19 +140,9 @@ class Explorer:
         origin, resolution = np.asarray(snapshot.origin, float), snapshot.resolution
         here = np.array([pose.x(), pose.y()])
         start = np.round((here - origin) / resolution).astype(int)
-        seen = evidence(snapshot)
-        ok, cost, offset = passable(seen, resolution, c.robot_radius, self.method.costmap,
-                                    snapshot.hits, origin)
+        ok, cost, offset = passable(evidence(snapshot), resolution, c.robot_radius,
+                                    self.method.costmap, snapshot.hits, origin, snapshot.trail)
         h, w = ok.shape
-        if snapshot.trail is not None:
-            # where the robot drove: it passed, though the map's noise may narrow a door it
-            # passed with a centimetre to spare below the clearance asked
-            cells, through = driven(snapshot.trail, resolution, origin, (h, w))
-            free = classify(seen, self.method.costmap)[0]
-            add = free[cells[:, 1], cells[:, 0]] & ~ok[cells[:, 1], cells[:, 0]]
-            iy, ix = cells[add, 1], cells[add, 0]
-            ok[iy, ix], offset[iy, ix] = True, through[add]
-            cost[iy, ix] *= self.method.costmap.off_centre_cost
         # the robot stands on free ground even where its sensor has not looked (behind it)
         yy, xx = np.mgrid[0:h, 0:w]
         ok |= np.hypot(xx - start[0], yy - start[1]) * resolution <= c.robot_radius
