@@ -15,6 +15,7 @@ from typing import Literal
 import gtsam
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
+from scipy.spatial import cKDTree
 
 from exploration.costmap import CostmapConfig, passable
 from exploration.frontier_methods import CFrontier, Frontier, GridFrontier, Reachable, evidence
@@ -143,13 +144,34 @@ class Explorer:
         ok, cost, offset = passable(evidence(snapshot), resolution, c.robot_radius,
                                     self.method.costmap, snapshot.hits, origin, snapshot.trail)
         h, w = ok.shape
-        # the robot stands on free ground even where its sensor has not looked (behind it)
-        yy, xx = np.mgrid[0:h, 0:w]
-        ok |= np.hypot(xx - start[0], yy - start[1]) * resolution <= c.robot_radius
+        ok |= self._footprint(snapshot, here, start)
         dist, parent = distance_field(ok, np.clip(start, 0, [w - 1, h - 1]), resolution, cost)
         reach = max(1, round(c.goals.reach / resolution))
         return Reachable(dist, parent, near_distance(dist, reach), reach, origin, resolution, here,
                          offset)
+
+    def _footprint(self, snapshot: MapSnapshot, here: np.ndarray, start: np.ndarray) -> np.ndarray:
+        """(h, w) bool: the cells within the robot's radius of its centre at ``here`` (cell
+        ``start``) that are no nearer than it is to what the map shows occupied (the hits, or
+        occupied cells): the robot stands on free ground even where its sensor has not looked
+        (behind it), but a cell beside a door's jamb is not one its centre can move to."""
+        c, resolution = self.config, snapshot.resolution
+        origin = np.asarray(snapshot.origin, float)
+        h, w = snapshot.prob.shape
+        yy, xx = np.mgrid[0:h, 0:w]
+        disc = np.hypot(xx - start[0], yy - start[1]) * resolution <= c.robot_radius
+        obstacles = snapshot.hits
+        if obstacles is None:
+            iy, ix = np.nonzero(evidence(snapshot) > self.method.costmap.occupied_above)
+            obstacles = origin + resolution * np.column_stack([ix, iy])
+        if len(obstacles) == 0:
+            return disc
+        tree = cKDTree(obstacles)
+        iy, ix = np.nonzero(disc)
+        gap = tree.query(origin + resolution * np.column_stack([ix, iy]))[0]
+        needed = min(float(tree.query(here)[0]), c.robot_radius + self.method.costmap.margin)
+        disc[iy[gap < needed], ix[gap < needed]] = False
+        return disc
 
     def _goal_still_valid(self, frontier: Frontier, reachable: Reachable) -> bool:
         """The goal is still reachable and frontier points remain near its target."""
@@ -159,4 +181,5 @@ class Explorer:
         targets = np.vstack([self.target, self.goal[None]])
         near = np.min(np.linalg.norm(points[:, None, :] - targets[None, :: max(1, len(targets) // 32)],
                                      axis=2), axis=1)
-        return bool(np.count_nonzero(near < self.config.goals.reach) >= self.config.goals.min_points // 2)
+        need = max(1, min(self.config.goals.min_points, len(self.target)) // 2)
+        return bool(np.count_nonzero(near < self.config.goals.reach) >= need)

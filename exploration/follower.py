@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import gtsam
 import numpy as np
@@ -22,7 +23,9 @@ class FollowerConfig(BaseModel):
 
 
 class PathFollower:
-    """Pure pursuit on a polyline path: steer to a point ``lookahead`` meters ahead on the path.
+    """Pure pursuit on a polyline path: steer to a point ``lookahead`` meters ahead on the path,
+    or nearer where the robot could not drive straight to that point (a corner of the path
+    through a narrow door: steering at a carrot past it cuts the corner into the door's jamb).
 
     The robot turns on the spot when the carrot is more than ``turn_in_place_deg`` off its
     heading, and slows down when turning hard, so it never cuts corners by much.
@@ -40,14 +43,20 @@ class PathFollower:
         self.max_turn_rate = max_turn_rate
         self.config = config or FollowerConfig()
 
-    def command(self, pose: gtsam.Pose2, path: np.ndarray) -> tuple[float, float, bool]:
-        """(v, w, reached) for the robot at ``pose`` following ``path`` (k, 2), in m/s, rad/s."""
+    def command(self, pose: gtsam.Pose2, path: np.ndarray,
+                clear: Callable[[np.ndarray], bool] | None = None) -> tuple[float, float, bool]:
+        """(v, w, reached) for the robot at ``pose`` following ``path`` (k, 2), in m/s, rad/s.
+        ``clear(p)`` says whether the robot may drive straight to the point ``p`` (2,) in its
+        own frame (m); the carrot is then moved nearer, down to an eighth of the lookahead,
+        until it is; None: every point is."""
         path = np.asarray(path, dtype=float).reshape(-1, 2)
         here = np.array([pose.x(), pose.y()])
         if np.linalg.norm(path[-1] - here) < self.config.tolerance:
             return 0.0, 0.0, True
-        carrot = self._carrot(here, path)
-        local = pose.transformTo(gtsam.Point2(*carrot))
+        for lookahead in self.config.lookahead / np.array([1.0, 2.0, 4.0, 8.0]):
+            local = np.asarray(pose.transformTo(gtsam.Point2(*self._carrot(here, path, lookahead))))
+            if clear is None or clear(local):
+                break
         bearing = math.atan2(local[1], local[0])
         w = float(np.clip(self.config.heading_gain * bearing, -self.max_turn_rate, self.max_turn_rate))
         if abs(bearing) > math.radians(self.config.turn_in_place_deg):
@@ -64,7 +73,8 @@ class PathFollower:
         rest = _rest_of_path(here, np.asarray(path, dtype=float).reshape(-1, 2))
         return float(np.linalg.norm(rest[0] - here) + np.linalg.norm(np.diff(rest, axis=0), axis=1).sum())
 
-    def _carrot(self, here: np.ndarray, path: np.ndarray) -> np.ndarray:
+    @staticmethod
+    def _carrot(here: np.ndarray, path: np.ndarray, lookahead: float) -> np.ndarray:
         """The first point on the path, after the point closest to the robot, ``lookahead`` away."""
         if len(path) == 1:
             return path[0]
@@ -73,7 +83,7 @@ class PathFollower:
             # the point on segment pq at distance lookahead from here, if any
             d = q - p
             f = p - here
-            qa, qb, qc = d @ d, 2 * f @ d, f @ f - self.config.lookahead**2
+            qa, qb, qc = d @ d, 2 * f @ d, f @ f - lookahead**2
             disc = qb * qb - 4 * qa * qc
             if qa > 0 and disc >= 0:
                 s = (-qb + math.sqrt(disc)) / (2 * qa)

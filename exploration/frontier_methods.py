@@ -24,6 +24,9 @@ from mapping.occupancy import MapSnapshot
 if TYPE_CHECKING:
     from exploration.explorer import ExplorerConfig
 
+#: Points of a cluster whose goal shows too little from which the C-frontier method looks again
+VIEWS = 8
+
 
 @dataclass(frozen=True)
 class Reachable:
@@ -78,8 +81,8 @@ class Frontier:
 
 class CFrontier:
     """The paper's method: the C-frontier map F (eq. 10) thresholded, clustered with k-means and
-    ranked by the utility of eq. 11; a cluster is significant when a look round from its goal
-    (from its centroid when it has none) would show ``min_gain`` m² of unknown space."""
+    ranked by the utility of eq. 11; a cluster is significant when a look round from its goal,
+    or from a goal by another of its points, would show ``min_gain`` m² of unknown space."""
 
     def __init__(self, config: ExplorerConfig):
         self.config = config
@@ -101,10 +104,38 @@ class CFrontier:
         clusters = extract_goals(frontier.values, reachable.origin, reachable.resolution,
                                  reachable.dist, c.goals, blacklist, seed=int(rng.integers(2**31)),
                                  approach=approach)
-        return [k for k in clusters if visible_unknown_area(
-            frontier.evidence, reachable.origin, reachable.resolution,
-            k.goal if k.goal is not None else k.centroid, c.sensor_range,
-            self.costmap.occupied_above) >= c.min_gain]
+        significant = [k for k in (self._significant(k, frontier, reachable) for k in clusters)
+                       if k is not None]
+        return sorted(significant, key=lambda k: -k.utility)
+
+    def _significant(self, cluster: FrontierCluster, frontier: Frontier,
+                     reachable: Reachable) -> FrontierCluster | None:
+        """The cluster when a look round from its goal (from its centroid when it has none)
+        shows ``min_gain``; else, served from the nearest goal by another of its points that
+        does (k-means can join a remnant beside the robot with a corridor's end across the
+        building: the goal by the nearest point sees only the remnant), tried at ``VIEWS``
+        points spread over the cluster; else None."""
+        c = self.config
+
+        def gain(at: np.ndarray) -> float:
+            return visible_unknown_area(frontier.evidence, reachable.origin, reachable.resolution,
+                                        at, c.sensor_range, self.costmap.occupied_above)
+
+        if cluster.goal is None:
+            return cluster if gain(cluster.centroid) >= c.min_gain else None
+        if gain(cluster.goal) >= c.min_gain:
+            return cluster
+        views = []
+        for point in spread(cluster.points, cluster.goal, VIEWS):
+            cell = best_cell_near(reachable.dist, reachable.cell(point), reachable.reach)
+            distance = float(reachable.dist[cell[1], cell[0]])
+            goal = reachable.origin + reachable.resolution * cell
+            if np.isfinite(distance) and gain(goal) >= c.min_gain:
+                views.append((distance, goal))
+        if not views:
+            return None
+        distance, goal = min(views, key=lambda v: v[0])
+        return cluster.served_from(goal, distance)
 
 
 class GridFrontier:
@@ -148,6 +179,20 @@ class GridFrontier:
             clusters.append(FrontierCluster(points, points.mean(axis=0), 1.0, distance, goal, -distance))
         clusters.sort(key=lambda k: -k.utility)
         return clusters
+
+
+def spread(points: np.ndarray, first: np.ndarray, k: int) -> np.ndarray:
+    """(≤ k, 2) of ``points`` (n, 2), each the farthest from ``first`` (2,) and those taken
+    before it (farthest-point sampling)."""
+    gap = np.linalg.norm(points - first, axis=1)
+    taken = []
+    for _ in range(min(k, len(points))):
+        j = int(np.argmax(gap))
+        if gap[j] == 0.0:
+            break
+        taken.append(j)
+        gap = np.minimum(gap, np.linalg.norm(points - points[j], axis=1))
+    return points[taken]
 
 
 def evidence(snapshot: MapSnapshot) -> np.ndarray:

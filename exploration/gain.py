@@ -28,21 +28,31 @@ def visible_unknown_area(prob: np.ndarray, origin, resolution: float, at, sensor
 
 
 @numba.njit(cache=True)
+def _occupied(prob, ix, iy, occupied_above):
+    h, w = prob.shape
+    return 0 <= ix < w and 0 <= iy < h and prob[iy, ix] > occupied_above
+
+
+@numba.njit(cache=True)
 def _cast(prob, x, y, reach, occupied_above, known, rays, half, seen):
     """Mark in ``seen`` (a window of ``half`` cells about the start's cell) the unknown cells
-    the rays from (``x``, ``y``) (cells) cross, each until its first occupied cell or ``reach``
-    cells."""
+    the rays from (``x``, ``y``) (cells) cross, each until its first occupied cell, a step
+    between two occupied cells that touch at a corner (a diagonal wall has no gap), or
+    ``reach`` cells."""
     h, w = prob.shape
     cx, cy = int(round(x)), int(round(y))
     steps = int(reach * 2.0 + 1.0)
     for k in range(rays):
         theta = 2.0 * math.pi * k / rays
         dx, dy = math.cos(theta), math.sin(theta)
+        px, py = cx, cy
         for j in range(steps):
             t = (j + 0.5) * 0.5
             ix, iy = int(round(x + t * dx)), int(round(y + t * dy))
             value = prob[iy, ix] if 0 <= ix < w and 0 <= iy < h else 0.5
-            if value > occupied_above:
+            if value > occupied_above or (ix != px and iy != py and _occupied(prob, ix, py, occupied_above)
+                                          and _occupied(prob, px, iy, occupied_above)):
                 break
+            px, py = ix, iy
             if abs(value - 0.5) <= known:
                 seen[iy - cy + half, ix - cx + half] = True

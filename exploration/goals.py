@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -18,8 +19,10 @@ class GoalConfig(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     threshold: float = Field(0.6, ge=0, description="keep points with F above this: the desired sensitivity")
-    min_points: int = Field(20, ge=1, description="fewer frontier points than this: no frontier "
-                            "left (20 points of 0.1 m: 2 m of frontier)")
+    min_points: int = Field(20, ge=1, description="a goal is kept while half this many frontier "
+                            "points (half its cluster's, when fewer) remain near it (20 points of "
+                            "0.1 m: 2 m of frontier). Not a stop: a 1 m door's frontier is 10 "
+                            "points; the explorers' significance tests end a run")
     points_per_cluster: int = Field(40, ge=1, description="k = ceil(n / points_per_cluster)")
     alpha: float = Field(3.0, ge=0, description="weight of information against sqrt(distance); "
                          "the paper gives no value. n/N grows as frontiers run out, so a large α "
@@ -47,6 +50,12 @@ class FrontierCluster:
     distance: float
     goal: np.ndarray | None
     utility: float
+
+    def served_from(self, goal: np.ndarray, distance: float) -> FrontierCluster:
+        """The same cluster with its goal at ``goal`` (m), ``distance`` m of path away; its
+        utility changes by eq. 11's √d term. The cluster must have a goal already."""
+        return dataclasses.replace(self, goal=goal, distance=distance,
+                                   utility=self.utility + math.sqrt(self.distance) - math.sqrt(distance))
 
 
 class Blacklist:
@@ -76,7 +85,8 @@ def utility(mean_value: float, size: int, total: int, distance: float, alpha: fl
 def extract_goals(frontier: np.ndarray, origin, resolution: float, dist: np.ndarray,
                   config: GoalConfig, blacklist: Blacklist | None = None,
                   seed: int = 0, approach: Approach | None = None) -> list[FrontierCluster]:
-    """Frontier clusters, best first (eq. 11); empty when no significant frontier is left.
+    """Frontier clusters, best first (eq. 11); empty when no point of F is above the threshold
+    (outside the blacklist).
 
     Args:
         frontier: (h, w) C-frontier map F.
@@ -96,7 +106,7 @@ def extract_goals(frontier: np.ndarray, origin, resolution: float, dist: np.ndar
     if blacklist is not None:
         keep = ~blacklist.covers(points)
         points, values, ix, iy = points[keep], values[keep], ix[keep], iy[keep]
-    if len(points) < config.min_points:
+    if len(points) == 0:
         return []
     k = math.ceil(len(points) / config.points_per_cluster)
     labels = KMeans(n_clusters=k, n_init=1, random_state=seed).fit_predict(points)

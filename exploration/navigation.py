@@ -94,6 +94,18 @@ def guarded(v: float, w: float, obstacles: np.ndarray, radius: float, clearance:
     return 0.0, w
 
 
+def straight_clear(to: np.ndarray, obstacles: np.ndarray, radius: float, clearance: float) -> bool:
+    """Can a disc of ``radius`` drive straight from the origin to ``to`` (2,) keeping farther
+    than ``radius + clearance`` from every point of ``obstacles`` (k, 2), or no nearer than it
+    already is (``guarded``'s rule)? All in the robot frame, meters."""
+    if len(obstacles) == 0:
+        return True
+    to = np.asarray(to, dtype=float)
+    t = np.clip(obstacles @ to / max(float(to @ to), 1e-12), 0.0, 1.0)
+    gap = np.linalg.norm(obstacles - t[:, None] * to, axis=1)
+    return bool(gap.min() >= min(radius + clearance, float(np.linalg.norm(obstacles, axis=1).min())))
+
+
 class Navigator:
     """Turns the explorer's plan into velocity commands, one per scan, and keeps them off what
     the current scan shows (``guarded``).
@@ -133,12 +145,13 @@ class Navigator:
             return Command(0.0, self.follower.max_turn_rate)
         if plan.goal is None:
             return Command(0.0, 0.0)
-        v, w, reached = self.follower.command(pose, plan.path)
+        c = self.config
+        v, w, reached = self.follower.command(
+            pose, plan.path, lambda carrot: straight_clear(carrot, obstacles, self.radius, c.guard_clearance))
         if reached:
             return Command(0.0, 0.0, "reached")
         if self.monitor.stuck(self.follower.remaining(pose, plan.path)):
             return Command(0.0, 0.0, "stuck")
-        c = self.config
         return Command(*guarded(v, w, obstacles, self.radius, c.guard_clearance, c.guard_horizon,
                                 self.follower.max_turn_rate))
 

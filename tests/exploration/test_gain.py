@@ -40,3 +40,19 @@ def test_a_wall_hides_what_is_behind_it_and_range_bounds_the_rest():
     area = visible_unknown_area(prob, (0.0, 0.0), RES, (4.0, 4.0), 8.0, 0.65)
     assert 6 * 2 < area < np.pi * 8**2 - 36
     assert visible_unknown_area(prob, (0.0, 0.0), RES, (4.0, 4.0), 2.0, 0.65) == 0.0   # 3 m to the wall
+
+
+def test_a_diagonal_wall_has_no_gap():
+    """The room's bottom-right corner cut off by a staircase wall of cells that touch only at
+    their corners (one per row and column: the hits of a 45-degree wall), unknown past it: a
+    ray stepping between two such cells meets wall on both sides and sees nothing past it.
+    The same staircase with every other cell missing (a real gap at each step) shows the
+    unknown behind it."""
+    prob = closed_room()
+    tile = prob[10:30, 50:70]                        # a view: x 5.0-6.9 m, y 1.0-2.9 m
+    tile[:] = 0.5
+    tile[np.tri(20, 20, -1, dtype=bool)] = 0.1       # the room's side of the diagonal
+    np.fill_diagonal(tile, 0.9)
+    assert visible_unknown_area(prob, (0.0, 0.0), RES, (4.0, 4.0), 8.0, 0.65) == 0.0
+    tile[np.arange(0, 20, 2), np.arange(0, 20, 2)] = 0.5
+    assert visible_unknown_area(prob, (0.0, 0.0), RES, (4.0, 4.0), 8.0, 0.65) > 0.5
