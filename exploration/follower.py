@@ -47,16 +47,17 @@ class PathFollower:
                 clear: Callable[[np.ndarray], bool] | None = None) -> tuple[float, float, bool]:
         """(v, w, reached) for the robot at ``pose`` following ``path`` (k, 2), in m/s, rad/s.
         ``clear(p)`` says whether the robot may drive straight to the point ``p`` (2,) in its
-        own frame (m); the carrot is then moved nearer, down to an eighth of the lookahead,
-        until it is; None: every point is."""
+        own frame (m): the carrot is the farthest of the points a lookahead, a half, a quarter
+        and an eighth of it ahead on the path that is, else the first (in a passage barely
+        wider than the robot no straight drive keeps the guard's clearance, and a near carrot
+        would only turn the robot on the spot); None: every point is."""
         path = np.asarray(path, dtype=float).reshape(-1, 2)
         here = np.array([pose.x(), pose.y()])
         if np.linalg.norm(path[-1] - here) < self.config.tolerance:
             return 0.0, 0.0, True
-        for lookahead in self.config.lookahead / np.array([1.0, 2.0, 4.0, 8.0]):
-            local = np.asarray(pose.transformTo(gtsam.Point2(*self._carrot(here, path, lookahead))))
-            if clear is None or clear(local):
-                break
+        carrots = [np.asarray(pose.transformTo(gtsam.Point2(*self._carrot(here, path, lookahead))))
+                   for lookahead in self.config.lookahead / np.array([1.0, 2.0, 4.0, 8.0])]
+        local = next((p for p in carrots if clear is None or clear(p)), carrots[0])
         bearing = math.atan2(local[1], local[0])
         w = float(np.clip(self.config.heading_gain * bearing, -self.max_turn_rate, self.max_turn_rate))
         if abs(bearing) > math.radians(self.config.turn_in_place_deg):

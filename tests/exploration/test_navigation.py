@@ -9,6 +9,9 @@ import pytest
 from exploration.explorer import Plan
 from exploration.follower import FollowerConfig
 from exploration.navigation import Command, NavigationConfig, Navigator, ProgressMonitor, guarded
+from sim.lidar import Lidar, LidarConfig
+from sim.robot import Robot, RobotConfig
+from sim.world import World
 
 MAX_SPEED, MAX_TURN = 0.5, math.pi / 2      # the spin takes 2π / (π/2) = 4 s
 T0 = 100.0                                  # the first scan's stamp: the spin's clock starts there
@@ -165,3 +168,43 @@ def test_navigator_commands_are_guarded():
     nav = navigator(initial_spin=False)
     command = nav.command(HERE, ahead_plan(), T0, wall_at(0.45))
     assert (command.v, command.w) == (0.25, 0.0)
+
+
+# ---------------------------------------------------------------- a narrow door
+
+def door_world() -> World:
+    """A one-pixel wall at x = 4.10-4.15 m with a 0.6 m door, y 1.8-2.4 m (5 cm cells): 5 cm
+    to spare on each side of a 0.25 m robot in the middle of it."""
+    grid = np.zeros((90, 120), dtype=bool)
+    grid[:, 82] = True
+    grid[36:48, 82] = False
+    return World(grid, (0.05, 0.05), name="door")
+
+
+#: the robot short of the door, 0.14 m off its middle line, as a planner's path left it; the
+#: path turns onto the middle line before the door
+BEFORE_DOOR = gtsam.Pose2(3.876, 1.962, 0.4)
+THROUGH_DOOR = np.array([[3.876, 1.962], [3.95, 2.05], [4.0, 2.1], [4.2, 2.1], [4.8, 2.1]])
+
+
+def test_the_carrot_is_a_point_the_robot_can_drive_straight_to():
+    """Pure pursuit's carrot 0.4 m ahead lies past the path's turn, straight through the
+    door's near jamb (4.10, 1.80): every arc towards it comes within the radius + 0.02 m of
+    the jamb and the guard stops the robot, scan after scan. With the carrot drawn in until
+    the straight drive to it is clear, the robot turns onto the middle line and passes the
+    door without touching it, in the scans its 1 m at 0.5 m/s and the turns take."""
+    world, lidar = door_world(), Lidar(LidarConfig(fov_deg=360, beams=720), seed=0)
+    nav = navigator(initial_spin=False)
+    obstacles = lidar.scan(world, BEFORE_DOOR).points()
+    v, w, _ = nav.follower.command(BEFORE_DOOR, THROUGH_DOOR)
+    assert guarded(v, w, obstacles, RADIUS, 0.02, 0.5, MAX_TURN)[0] == 0.0
+
+    robot = Robot(world, BEFORE_DOOR, RobotConfig(radius=RADIUS))
+    plan = Plan(THROUGH_DOOR[-1], THROUGH_DOOR, new_goal=True)
+    for k in range(40):
+        command = nav.command(robot.pose, plan, T0 + DT * k, lidar.scan(world, robot.pose).points())
+        assert command.event != "stuck"
+        if command.event == "reached":
+            break
+        robot.move(command.v, command.w, DT)
+    assert command.event == "reached" and robot.collisions == 0
