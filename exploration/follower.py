@@ -20,6 +20,10 @@ class FollowerConfig(BaseModel):
     turn_in_place_deg: float = Field(45.0, gt=0, le=180, description="turn on the spot when the "
                                      "carrot is more than this off the heading, degrees")
     heading_gain: float = Field(2.0, gt=0, description="turn rate per radian of heading error, 1/s")
+    max_shift: float = Field(0.1, ge=0, description="meters a carrot the robot cannot drive "
+                             "straight to may be moved across the path to one it can (the "
+                             "path through a door is as far off its middle as the pose and "
+                             "the map are)")
 
 
 class PathFollower:
@@ -47,17 +51,17 @@ class PathFollower:
                 clear: Callable[[np.ndarray], bool] | None = None) -> tuple[float, float, bool]:
         """(v, w, reached) for the robot at ``pose`` following ``path`` (k, 2), in m/s, rad/s.
         ``clear(p)`` says whether the robot may drive straight to the point ``p`` (2,) in its
-        own frame (m): the carrot is the farthest of the points a lookahead, a half, a quarter
-        and an eighth of it ahead on the path that is, else the first (in a passage barely
-        wider than the robot no straight drive keeps the guard's clearance, and a near carrot
-        would only turn the robot on the spot); None: every point is."""
+        own frame (m): when the carrot is not, the first of ``_clear_carrots`` replaces it,
+        else it stays (in a passage barely wider than the robot no straight drive may keep the
+        guard's clearance, and a near carrot would only turn the robot on the spot); None:
+        every point is."""
         path = np.asarray(path, dtype=float).reshape(-1, 2)
         here = np.array([pose.x(), pose.y()])
         if np.linalg.norm(path[-1] - here) < self.config.tolerance:
             return 0.0, 0.0, True
-        carrots = [np.asarray(pose.transformTo(gtsam.Point2(*self._carrot(here, path, lookahead))))
-                   for lookahead in self.config.lookahead / np.array([1.0, 2.0, 4.0, 8.0])]
-        local = next((p for p in carrots if clear is None or clear(p)), carrots[0])
+        local = np.asarray(pose.transformTo(gtsam.Point2(*self._carrot(here, path, self.config.lookahead))))
+        if clear is not None and not clear(local):
+            local = next(self._clear_carrots(pose, here, path, clear), local)
         bearing = math.atan2(local[1], local[0])
         w = float(np.clip(self.config.heading_gain * bearing, -self.max_turn_rate, self.max_turn_rate))
         if abs(bearing) > math.radians(self.config.turn_in_place_deg):
@@ -65,6 +69,26 @@ class PathFollower:
         distance = float(np.linalg.norm(path[-1] - here))
         v = min(self.max_speed, distance) * math.cos(bearing)
         return v, w, False
+
+    def _clear_carrots(self, pose: gtsam.Pose2, here: np.ndarray, path: np.ndarray,
+                       clear: Callable[[np.ndarray], bool]):
+        """The carrots, in the robot's frame, that ``clear`` accepts: at a lookahead, a half, a
+        quarter and an eighth of it, each on the path or moved across it by up to
+        ``max_shift``, nearest first (the live scan shows the middle of a door the map puts a
+        few centimetres off)."""
+        shifts = np.linspace(0.0, self.config.max_shift, 6)
+        shifts = np.concatenate([[0.0], np.column_stack([shifts[1:], -shifts[1:]]).ravel()])
+        for lookahead in self.config.lookahead / np.array([1.0, 2.0, 4.0, 8.0]):
+            carrot = self._carrot(here, path, lookahead)
+            along = carrot - here
+            norm = float(np.linalg.norm(along))
+            if norm == 0.0:
+                continue
+            across = np.array([-along[1], along[0]]) / norm
+            for shift in shifts:
+                local = np.asarray(pose.transformTo(gtsam.Point2(*(carrot + shift * across))))
+                if clear(local):
+                    yield local
 
     @staticmethod
     def remaining(pose: gtsam.Pose2, path: np.ndarray) -> float:

@@ -100,6 +100,32 @@ def test_a_door_with_no_clear_cell_centre_is_passed_through_its_clear_points():
     assert np.isinf(distance_field(ok & (np.linalg.norm(offset, axis=-1) == 0), (30, 43), res)[0][43, 70])
 
 
+@pytest.mark.parametrize("door, passed", [(0.46, True), (0.42, False)])
+def test_a_door_that_reads_narrower_than_the_robot_by_the_squeeze_is_passed_at_its_middle(door, passed):
+    """A door whose hits leave ``door`` m between its jambs, in a wall along x = 5.0 m: a
+    0.25 m robot with the 0.02 m margin asks 0.54 m. Pose error puts hits centimetres inside
+    free space, so a passage between two clear regions may read up to ``squeeze`` (0.05 m) a
+    side narrower: 0.44 m. A 0.46 m door is passed at its middle, costed as off-centre cells;
+    without the squeeze it is not. A 0.42 m door is not passed."""
+    res, radius = 0.1, 0.25
+    prob = np.full((100, 100), 0.1)
+    ys = np.r_[np.linspace(0.0, 4.04, 405), np.linspace(4.04 + door, 9.9, 200)]
+    hits = np.column_stack([np.full_like(ys, 5.0), ys])
+    config = CostmapConfig(unknown_clearance=0.0)
+    ok, cost, offset = passable(prob, res, radius, config, hits)
+    dist, parent = distance_field(ok, (30, 43), res, cost)
+    assert np.isfinite(dist[43, 70]) == passed
+    if passed:
+        cells = path_to(parent, (70, 43))
+        points = res * cells + offset[cells[:, 1], cells[:, 0]]
+        middle = 4.04 + door / 2
+        crossing = points[np.abs(points[:, 0] - 5.0) < 0.05]
+        assert np.abs(crossing[:, 1] - middle).max() < 0.01
+        assert cKDTree(hits).query(points)[0].min() > radius + 0.02 - config.squeeze
+        tight, _, _ = passable(prob, res, radius, config.model_copy(update={"squeeze": 0.0}), hits)
+        assert np.isinf(distance_field(tight, (30, 43), res)[0][43, 70])
+
+
 def test_bad_thresholds_are_rejected():
     with pytest.raises(ValidationError, match="free_below"):
         CostmapConfig(free_below=0.7, occupied_above=0.6)

@@ -9,6 +9,7 @@ import pytest
 from exploration.costmap import passable
 from exploration.explorer import Explorer, ExplorerConfig
 from exploration.frontier import frontier_map
+from exploration.gain import visible_unknown_area
 from exploration.goals import GoalConfig
 from exploration.paths import distance_field
 from mapping.occupancy import MapSnapshot
@@ -352,9 +353,10 @@ def test_stop_fires_on_an_observed_room_with_remnant_texture():
 
 
 def test_the_way_the_robot_came_is_a_way_back_through_a_door_the_map_narrowed():
-    """The right door's hits leave 0.5 m between its jambs (y 3.75 and 4.25 m): less than the
-    0.54 m a 0.25 m robot with the 0.02 m margin asks, as range noise and pose error make of a
-    door the robot passed with a centimetre to spare. Without its trail, no goal in or past the
+    """The right door's hits leave 0.4 m between its jambs (y 3.8 and 4.2 m): less than the
+    0.54 m a 0.25 m robot with the 0.02 m margin asks, less the 0.05 m a side a passage may
+    read narrower (``squeeze``), as pose error makes of a door the robot passed with a few
+    centimetres to spare. Without its trail, no goal in or past the
     wall (x from 7.95 m) is reachable; with the trail of its drive in through the door at
     y = 4.0 m, the goal is, and the path into the wall runs on the trail."""
     snapshot = room([("right", *DOOR, 10)])
@@ -362,9 +364,9 @@ def test_the_way_the_robot_came_is_a_way_back_through_a_door_the_map_narrowed():
         snapshot.prob[rows, 80:82] = WALL
         snapshot.prob_occ[rows, 80:82] = WALL
     iy, ix = np.nonzero(snapshot.prob == WALL)
-    jambs = [(x, y) for x in np.linspace(7.95, 8.15, 5) for y in (3.75, 4.25)]
+    jambs = [(x, y) for x in np.linspace(7.95, 8.15, 5) for y in (3.8, 4.2)]
     hits = np.vstack([RES * np.column_stack([ix, iy]), jambs])
-    hits = hits[~((hits[:, 0] > 7.9) & (hits[:, 1] > 3.75) & (hits[:, 1] < 4.25))]
+    hits = hits[~((hits[:, 0] > 7.9) & (hits[:, 1] > 3.8) & (hits[:, 1] < 4.2))]
     blind = dataclasses.replace(snapshot, hits=hits)
     plan = Explorer(ExplorerConfig()).plan(blind, ROBOT)
     assert plan.goal is None or plan.goal[0] < 7.95
@@ -374,3 +376,54 @@ def test_the_way_the_robot_came_is_a_way_back_through_a_door_the_map_narrowed():
     assert plan.new_goal and plan.goal[0] > 7.95
     crossing = plan.path[plan.path[:, 0] > 7.9]
     assert len(crossing) and np.abs(crossing[:, 1] - 4.0).max() < 1e-9
+
+
+def test_the_robot_s_own_disc_is_no_way_past_a_door_s_jamb():
+    """The robot stands in a 0.6 m door (hits of its jambs at y = 1.85 and 2.45 m, x = 4.15 m;
+    0.1 m cells centred at multiples of 0.1 m plus 0.05 m), 0.26 m from the lower jamb. The
+    cells of its disc are passable even where its sensor has not looked, but not those nearer
+    the jamb than it is: no point of its path comes nearer the hits than it stands, or than
+    the radius and margin where it has more room."""
+    prob = np.full((45, 70), UNKNOWN)
+    prob[5:36, 20:61] = FREE                             # known free: x 2.05-6.05, y 0.55-3.55
+    prob[4, 19:62] = prob[36, 19:62] = WALL
+    prob[4:37, 19] = prob[4:37, 61] = WALL
+    prob[5:12, 42:61] = UNKNOWN                          # the right room's floor, y 1.25 m,
+    prob[12, 42:61] = WALL                               # with an opening, x 4.35-5.55 m
+    prob[12, 43:56] = FREE
+    prob[5:19, 41] = prob[24:36, 41] = WALL              # the wall x = 4.15 m, the door
+    iy, ix = np.nonzero(prob == WALL)
+    hits = 0.05 + RES * np.column_stack([ix, iy])
+    snapshot = MapSnapshot(prob, None, np.full(2, 0.05), RES, hits=hits)
+    config = ExplorerConfig(method="grid")
+    here = np.array([4.006, 2.07])
+    plan = Explorer(config).plan(snapshot, gtsam.Pose2(*here, 0.0))
+    assert plan.goal is not None
+    gap = lambda p: np.linalg.norm(hits[None] - np.atleast_2d(p)[:, None], axis=2).min(axis=1)
+    own = gap(here)[0]
+    assert 0.25 < own < config.robot_radius + config.grid_costmap.margin
+    assert gap(plan.path[1:]).min() >= own - 1e-9
+
+
+def test_a_cluster_is_significant_from_its_far_end_when_its_near_end_is_a_remnant():
+    """k-means put the remnant pocket beside the robot (0.36 m², as in the test above) and the
+    right door's frontier in one cluster (k = 1 with 1000 points a cluster). With a 2 m
+    sensor, the goal by the cluster's nearest point, 3 m from the door, sees only the pocket:
+    under the 1 m² of a significant frontier. The cluster is not dropped: it is served from a
+    goal by its far end, at the door, which sees the unknown beyond it."""
+    snapshot = one_opening()
+    snapshot.prob[37:43, 57:63] = UNKNOWN
+    snapshot.prob_occ[37:43, 57:63] = UNKNOWN
+    config = ExplorerConfig(goals=GoalConfig(min_points=5, points_per_cluster=1000), sensor_range=2.0)
+    points = frontier_points(snapshot)
+    pocket = points[points[:, 0] < 7.0]
+    assert len(pocket) and len(points) > len(pocket)
+    near = Explorer(config.model_copy(update={"min_gain": 0.0})).plan(snapshot, ROBOT)
+    assert near.goal[0] < 6.5 and visible_unknown_area(
+        snapshot.prob, snapshot.origin, RES, near.goal, 2.0, config.costmap.occupied_above) < config.min_gain
+    plan = Explorer(config).plan(snapshot, ROBOT)
+    assert plan.new_goal and len(plan.clusters) == 1
+    assert len(plan.clusters[0].points) == len(points)                 # one cluster: both
+    assert plan.goal[0] > 7.4 and DOOR[0] * RES <= plan.goal[1] <= DOOR[1] * RES
+    assert_passable_path(plan, snapshot, config)
+
