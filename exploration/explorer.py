@@ -15,9 +15,11 @@ from typing import Literal
 import gtsam
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
+from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from exploration.costmap import CostmapConfig, passable
+from exploration.follower import rest_of_path
 from exploration.frontier_methods import CFrontier, Frontier, GridFrontier, Reachable, evidence
 from exploration.goals import Blacklist, FrontierCluster, GoalConfig
 from exploration.paths import distance_field, near_distance
@@ -50,6 +52,11 @@ class ExplorerConfig(BaseModel):
                             "missed_area_m2 counts regions of 1 m²). The grid baseline keeps "
                             "Yamauchi's stop: frontier regions of min_frontier_cells")
     sensor_range: float = Field(8.0, gt=0, description="m, the laser's, for that look")
+    closed_stretch: float = Field(0.75, gt=0, description="meters of path ahead of a robot that "
+                                  "got stuck closed to later paths: a passage the map reads "
+                                  "passable that the robot cannot pass (a gap narrower than it, "
+                                  "read wider through pose error or the costmap's squeeze) is "
+                                  "tried once, not once for every frontier behind it")
 
 
 Done = Literal["frontiers_exhausted", "no_reachable_goal"]
@@ -78,8 +85,8 @@ class Explorer:
     """Keeps a goal and a path to it, and chooses a new goal when needed.
 
     Call ``plan`` after map updates with the map snapshot; call ``reached`` when the robot
-    arrived, and ``give_up`` when it cannot follow the path (e.g. stuck), which blacklists
-    the goal.
+    arrived, and ``stuck`` when it cannot follow the path, which closes the path's stretch
+    ahead of it and blacklists the goal.
     """
 
     def __init__(self, config: ExplorerConfig | None = None, seed: int = 0):
@@ -90,20 +97,31 @@ class Explorer:
         self.goal: np.ndarray | None = None
         self.target: np.ndarray = np.zeros((0, 2))  # the frontier points the goal serves
         self.goals_chosen = 0
+        self.closed = np.zeros((0, 2))              # points of paths the robot could not follow
         self._rng = np.random.default_rng(seed)
 
     def reached(self) -> None:
         """The robot arrived at the goal: the next ``plan`` chooses a new one."""
         self.goal = None
 
-    def give_up(self, frontier: bool = True) -> None:
-        """The current goal cannot be reached: blacklist it, and with ``frontier`` the frontier
-        it serves too (the robot could not get to it; without, only the goal's neighbourhood)."""
+    def stuck(self, here: np.ndarray, path: np.ndarray) -> None:
+        """The robot at ``here`` (2,) could not follow ``path`` (k, 2): the stretch of it from
+        the robot's front edge (its radius ahead) to ``closed_stretch`` m ahead is closed to
+        later paths, with the cells beside it, and the goal is blacklisted, but not its
+        frontier, which another way may reach. The robot's own cell and those behind it stay
+        open: it can back out."""
+        rest = rest_of_path(np.asarray(here, float), np.asarray(path, float).reshape(-1, 2))
+        step = np.linalg.norm(np.diff(rest, axis=0), axis=1)
+        along = np.concatenate([[0.0], np.cumsum(step)])
+        at = np.arange(self.config.robot_radius, min(self.config.closed_stretch, along[-1]) + 1e-9, 0.05)
+        stretch = np.column_stack([np.interp(at, along, rest[:, 0]), np.interp(at, along, rest[:, 1])])
+        self.closed = np.vstack([self.closed, stretch])
+        self.give_up()
+
+    def give_up(self) -> None:
+        """The current goal cannot be reached: blacklist it (and the frontier near it)."""
         if self.goal is not None:
             self.blacklist.add(self.goal)
-            if frontier:
-                for p in self.target[:: max(1, len(self.target) // 8)]:
-                    self.blacklist.add(p)
         self.goal = None
 
     def plan(self, snapshot: MapSnapshot, pose: gtsam.Pose2) -> Plan:
@@ -130,7 +148,7 @@ class Explorer:
             self.goal, self.target = best.goal, best.points
             if np.linalg.norm(self.goal - reachable.here) > self.config.min_goal_distance:
                 break
-            self.give_up(frontier=False)
+            self.give_up()
         self.goals_chosen += 1
         return Plan(self.goal, reachable.path(self.goal), new_goal=True, clusters=clusters,
                     frontier=frontier.values)
@@ -145,6 +163,12 @@ class Explorer:
                                     self.method.costmap, snapshot.hits, origin, snapshot.trail)
         h, w = ok.shape
         ok |= self._footprint(snapshot, here, start)
+        if len(self.closed):
+            cells = np.round((self.closed - origin) / resolution).astype(int)
+            cells = cells[(cells[:, 0] >= 0) & (cells[:, 0] < w) & (cells[:, 1] >= 0) & (cells[:, 1] < h)]
+            closed = np.zeros_like(ok)
+            closed[cells[:, 1], cells[:, 0]] = True
+            ok &= ~ndimage.binary_dilation(closed, np.ones((3, 3), bool))
         dist, parent = distance_field(ok, np.clip(start, 0, [w - 1, h - 1]), resolution, cost)
         reach = max(1, round(c.goals.reach / resolution))
         return Reachable(dist, parent, near_distance(dist, reach), reach, origin, resolution, here,

@@ -73,9 +73,9 @@ class PathFollower:
     def _clear_carrots(self, pose: gtsam.Pose2, here: np.ndarray, path: np.ndarray,
                        clear: Callable[[np.ndarray], bool]):
         """The carrots, in the robot's frame, that ``clear`` accepts: at a lookahead, a half, a
-        quarter and an eighth of it, each on the path or moved across it by up to
-        ``max_shift``, nearest first (the live scan shows the middle of a door the map puts a
-        few centimetres off)."""
+        quarter and an eighth of it on the path, farthest first, each where it is or moved
+        sideways (across the line to it) by up to ``max_shift``, least first (the live scan
+        shows the middle of a door the path passes a few centimetres off)."""
         shifts = np.linspace(0.0, self.config.max_shift, 6)
         shifts = np.concatenate([[0.0], np.column_stack([shifts[1:], -shifts[1:]]).ravel()])
         for lookahead in self.config.lookahead / np.array([1.0, 2.0, 4.0, 8.0]):
@@ -95,7 +95,7 @@ class PathFollower:
         """Meters left to go: to the closest point of ``path`` (k, 2), then along it to its end.
         Unlike the straight-line distance to the goal, it shrinks on a path that detours."""
         here = np.array([pose.x(), pose.y()])
-        rest = _rest_of_path(here, np.asarray(path, dtype=float).reshape(-1, 2))
+        rest = rest_of_path(here, np.asarray(path, dtype=float).reshape(-1, 2))
         return float(np.linalg.norm(rest[0] - here) + np.linalg.norm(np.diff(rest, axis=0), axis=1).sum())
 
     @staticmethod
@@ -103,7 +103,7 @@ class PathFollower:
         """The first point on the path, after the point closest to the robot, ``lookahead`` away."""
         if len(path) == 1:
             return path[0]
-        remaining = _rest_of_path(here, path)
+        remaining = rest_of_path(here, path)
         for p, q in zip(remaining[:-1], remaining[1:]):
             # the point on segment pq at distance lookahead from here, if any
             d = q - p
@@ -117,8 +117,9 @@ class PathFollower:
         return path[-1]
 
 
-def _rest_of_path(here: np.ndarray, path: np.ndarray) -> np.ndarray:
-    """The path from its point closest to ``here`` on: that point, then the vertices after it."""
+def rest_of_path(here: np.ndarray, path: np.ndarray) -> np.ndarray:
+    """The path (k, 2) from its point closest to ``here`` (2,) on: that point, then the vertices
+    after it."""
     if len(path) == 1:
         return path
     a, b = path[:-1], path[1:]

@@ -175,7 +175,7 @@ class Stack:
             if command.event == "reached":
                 self.explorer.reached()
             else:
-                self.explorer.give_up()
+                self.explorer.stuck(np.array([here.pose.x(), here.pose.y()]), self.plan.path)
                 self.goals_abandoned += 1
             out.plan = self.replan(here.pose)
             command = self.navigator.command(here.pose, self.plan, stamp, obstacles)
