@@ -16,7 +16,6 @@ import gtsam
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 from scipy import ndimage
-from scipy.spatial import cKDTree
 
 from exploration.costmap import CostmapConfig, passable
 from exploration.follower import rest_of_path
@@ -188,12 +187,14 @@ class Explorer:
         if obstacles is None:
             iy, ix = np.nonzero(evidence(snapshot) > self.method.costmap.occupied_above)
             obstacles = origin + resolution * np.column_stack([ix, iy])
+        needed = c.robot_radius + self.method.costmap.margin
+        obstacles = obstacles[np.abs(obstacles - here).max(axis=1) < c.robot_radius + needed + resolution]
         if len(obstacles) == 0:
             return disc
-        tree = cKDTree(obstacles)
+        needed = min(needed, float(np.linalg.norm(obstacles - here, axis=1).min()))
         iy, ix = np.nonzero(disc)
-        gap = tree.query(origin + resolution * np.column_stack([ix, iy]))[0]
-        needed = min(float(tree.query(here)[0]), c.robot_radius + self.method.costmap.margin)
+        cells = origin + resolution * np.column_stack([ix, iy])
+        gap = np.linalg.norm(cells[:, None] - obstacles[None], axis=2).min(axis=1)
         disc[iy[gap < needed], ix[gap < needed]] = False
         return disc
 
