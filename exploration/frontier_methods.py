@@ -68,9 +68,9 @@ class Reachable:
 class Frontier:
     """A snapshot's frontier: ``values`` (h, w) the frontier map (F, or 1 on grid frontier
     cells), ``cells`` (n, 2) its significant cells (ix, iy), for the grid method its
-    ``regions`` (a list of (m, 2) cell arrays), and for the C-frontier method the snapshot's
-    ``evidence`` (h, w) its significance test looks round on; ``blocked`` (h, w) bool, the cells
-    the laser cannot see through."""
+    ``regions`` (a list of (m, 2) cell arrays), and for the C-frontier method the map
+    ``evidence`` (h, w) its significance test looks round on (the snapshot's evidence, occupied
+    too where Λo is); ``blocked`` (h, w) bool, the cells the laser cannot see through."""
 
     values: np.ndarray
     cells: np.ndarray
@@ -93,7 +93,12 @@ class CFrontier:
         values = frontier_map(snapshot.prob, snapshot.prob_occ, snapshot.resolution, c.beta, c.smoothing)
         iy, ix = np.nonzero(values > c.goals.threshold)
         seen = evidence(snapshot)
-        return Frontier(values, np.column_stack([ix, iy]), evidence=seen,
+        # the look stops where the obstacle GP predicts an obstacle (Λo), as at the unseen face
+        # of a block whose other faces were seen, not only where a hit was: behind such a face
+        # lies the block's inside, not space to explore
+        look = seen if snapshot.prob_occ is None else np.where(
+            snapshot.prob_occ > self.costmap.occupied_above, 1.0, seen)
+        return Frontier(values, np.column_stack([ix, iy]), evidence=look,
                         blocked=seen > self.costmap.occupied_above)
 
     def clusters(self, frontier: Frontier, reachable: Reachable, blacklist: Blacklist,
