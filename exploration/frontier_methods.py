@@ -19,6 +19,7 @@ from exploration.gain import visible_unknown_area
 from exploration.goals import Blacklist, FrontierCluster, extract_goals
 from exploration.grid_frontier import grid_frontiers
 from exploration.paths import Approach, best_cell_near, path_to
+from mapping.metrics import KNOWN
 from mapping.occupancy import MapSnapshot
 
 if TYPE_CHECKING:
@@ -70,7 +71,7 @@ class Frontier:
     cells), ``cells`` (n, 2) its significant cells (ix, iy), for the grid method its
     ``regions`` (a list of (m, 2) cell arrays), and for the C-frontier method the map
     ``evidence`` (h, w) its significance test looks round on (the snapshot's evidence, occupied
-    too where Λo is); ``blocked`` (h, w) bool, the cells the laser cannot see through."""
+    too at unknown cells where Λo is); ``blocked`` (h, w) bool, the cells the laser cannot see through."""
 
     values: np.ndarray
     cells: np.ndarray
@@ -93,11 +94,12 @@ class CFrontier:
         values = frontier_map(snapshot.prob, snapshot.prob_occ, snapshot.resolution, c.beta, c.smoothing)
         iy, ix = np.nonzero(values > c.goals.threshold)
         seen = evidence(snapshot)
-        # the look stops where the obstacle GP predicts an obstacle (Λo), as at the unseen face
-        # of a block whose other faces were seen, not only where a hit was: behind such a face
-        # lies the block's inside, not space to explore
+        # the look also stops at unknown cells where the obstacle GP predicts an obstacle (Λo),
+        # as at the unseen face of a block whose other faces were seen: behind such a face lies
+        # the block's inside, not space to explore. Cells a beam crossed keep the evidence (Λo
+        # smooths over doors a beam has passed)
         look = seen if snapshot.prob_occ is None else np.where(
-            snapshot.prob_occ > self.costmap.occupied_above, 1.0, seen)
+            (snapshot.prob_occ > self.costmap.occupied_above) & (np.abs(seen - 0.5) <= KNOWN), 1.0, seen)
         return Frontier(values, np.column_stack([ix, iy]), evidence=look,
                         blocked=seen > self.costmap.occupied_above)
 
