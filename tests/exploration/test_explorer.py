@@ -8,6 +8,7 @@ import pytest
 
 from exploration.costmap import passable
 from exploration.explorer import Explorer, ExplorerConfig
+from exploration.frontier_methods import CFrontier
 from exploration.frontier import frontier_map
 from exploration.gain import visible_unknown_area
 from exploration.goals import GoalConfig
@@ -439,3 +440,24 @@ def test_a_passage_the_robot_could_not_pass_is_closed_not_retried():
     after = explorer._reachable(snapshot, gtsam.Pose2(*at, 0.0))
     assert not np.isfinite(after.dist[:, 80:]).any()                 # nothing at or past the door
     assert np.isfinite(after.distance_to(np.array([ROBOT.x(), ROBOT.y()])))
+
+
+def test_the_look_stops_at_an_unseen_face_the_obstacle_gp_predicts():
+    """The room's right wall was never hit over y 3.0-5.0 m (the evidence grid is unknown there,
+    and so is the block behind it), but the obstacle GP, trained on the wall's hits either side,
+    predicts it (Λo 0.9). From (7.5, 4.0) the look counts the block's inside without Λo, and
+    with it only what it sees through the left door, as with the wall seen. The door of the left wall, which beams crossed (free in the evidence), is
+    seen through even where Λo closes it, as the COM's smoothing does to doors."""
+    walled = room([("left", *DOOR, 10)])
+    snapshot = room([("left", *DOOR, 10)])
+    face = (slice(30, 50), slice(80, 82))
+    snapshot.prob[face] = UNKNOWN
+    snapshot.prob_occ[face] = WALL
+    snapshot.prob_occ[DOOR[0]:DOOR[1], 18:20] = WALL
+    evidence = CFrontier(ExplorerConfig()).frontier(snapshot).evidence
+    look = lambda prob, at: visible_unknown_area(prob, snapshot.origin, RES, at, 8.0, 0.65)
+    through_door = look(walled.prob, (7.5, 4.0))                     # the left door's unknown
+    assert look(snapshot.prob, (7.5, 4.0)) > through_door + 5.0
+    assert look(evidence, (7.5, 4.0)) == pytest.approx(through_door)
+    assert look(walled.prob, (2.5, 4.0)) > 5.0
+    assert look(evidence, (2.5, 4.0)) == pytest.approx(look(walled.prob, (2.5, 4.0)))
