@@ -19,10 +19,9 @@ class GoalConfig(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     threshold: float = Field(0.6, ge=0, description="keep points with F above this: the desired sensitivity")
-    min_points: int = Field(20, ge=1, description="a goal is kept while half this many frontier "
-                            "points (half its cluster's, when fewer) remain near it (20 points of "
-                            "0.1 m: 2 m of frontier). Not a stop: a 1 m door's frontier is 10 "
-                            "points; the explorers' significance tests end a run")
+    min_points: int = Field(20, ge=1, description="fewer frontier points than this: no frontier "
+                            "left (20 points of 0.1 m: 2 m of frontier); a goal is kept while half "
+                            "this many (half its cluster's, when fewer) remain near it")
     points_per_cluster: int = Field(40, ge=1, description="k = ceil(n / points_per_cluster)")
     alpha: float = Field(3.0, ge=0, description="weight of information against sqrt(distance); "
                          "the paper gives no value. n/N grows as frontiers run out, so a large α "
@@ -85,8 +84,8 @@ def utility(mean_value: float, size: int, total: int, distance: float, alpha: fl
 def extract_goals(frontier: np.ndarray, origin, resolution: float, dist: np.ndarray,
                   config: GoalConfig, blacklist: Blacklist | None = None,
                   seed: int = 0, approach: Approach | None = None) -> list[FrontierCluster]:
-    """Frontier clusters, best first (eq. 11); empty when no point of F is above the threshold
-    (outside the blacklist).
+    """Frontier clusters, best first (eq. 11); empty when fewer than ``min_points`` points of F
+    are above the threshold outside the blacklist.
 
     Args:
         frontier: (h, w) C-frontier map F.
@@ -106,7 +105,7 @@ def extract_goals(frontier: np.ndarray, origin, resolution: float, dist: np.ndar
     if blacklist is not None:
         keep = ~blacklist.covers(points)
         points, values, ix, iy = points[keep], values[keep], ix[keep], iy[keep]
-    if len(points) == 0:
+    if len(points) < config.min_points:
         return []
     k = math.ceil(len(points) / config.points_per_cluster)
     labels = KMeans(n_clusters=k, n_init=1, random_state=seed).fit_predict(points)

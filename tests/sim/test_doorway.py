@@ -34,26 +34,28 @@ def test_a_door_of_0_8_m_is_passed_and_both_rooms_are_explored(method):
 
 def rooms_with_a_door_and_a_nook(door: float) -> World:
     """``rooms_with_a_door`` with the second room 2 m longer (to x = 10.25 m) and a one-pixel
-    wall across it at x = 6.5 m, from the floor to y = 3.3 m: the 3.6 m x 4 m nook behind it
-    is seen only from inside the second room, past the door."""
+    wall across it at x = 6.5 m, from the floor to y = 2.5 m: the nook behind it is seen only
+    from inside the second room, past the door."""
     grid = np.zeros((84, 205), dtype=bool)
     grid[:2], grid[-2:], grid[:, :2], grid[:, -2:] = True, True, True, True
     grid[:, 82] = True
     half = round(door / RES / 2)
     grid[42 - half:42 + half, 82] = False
-    grid[:66, 130] = True
+    grid[:50, 130] = True
     return World(grid, (RES, RES), name="door_and_nook")
 
 
+@pytest.mark.parametrize("seed", [1, 2])
 @pytest.mark.parametrize("method", ["gp", "grid"])
-def test_a_door_of_0_6_m_is_passed_with_slam_and_the_room_behind_it_explored(method):
+def test_a_door_of_0_6_m_is_passed_with_slam_and_the_nook_behind_it_explored(method, seed):
     """0.6 m leaves 5 cm a side to the robot. With Pose SLAM the map's jambs stand centimetres
     inside the door: the planner must still pass it (the costmap's squeeze), and the robot must
-    thread it from its live scan (the carrot it can drive straight to), or the nook is missed
-    (60-64 % coverage before those)."""
+    thread it from its live scan (the carrot it can drive straight to; the robot's own disc no
+    way past a jamb), or the nook is missed. Before those, the grid baseline gave up at the
+    door and stopped at 65 % (seed 1)."""
     world = rooms_with_a_door_and_a_nook(0.6)
     config = EpisodeConfig().overridden(method=method, poses="slam", max_steps=3000)
-    m = run_episode(world, gtsam.Pose2(1.5, 1.0, 0.0), config, seed=1).metrics
-    assert m["collisions"] == 0
+    m = run_episode(world, gtsam.Pose2(1.5, 1.0, 0.0), config, seed=seed).metrics
+    assert m["collisions"] == 0 and m["goals_abandoned"] == 0
     assert m["coverage"] >= 0.99, m
     assert m["termination_reason"] == "frontiers_exhausted"
