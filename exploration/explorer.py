@@ -112,6 +112,7 @@ class Explorer:
         rest = rest_of_path(np.asarray(here, float), np.asarray(path, float).reshape(-1, 2))
         step = np.linalg.norm(np.diff(rest, axis=0), axis=1)
         along = np.concatenate([[0.0], np.cumsum(step)])
+        # every 5 cm: half a cell of the costmap grid
         at = np.arange(self.config.robot_radius, min(self.config.closed_stretch, along[-1]) + 1e-9, 0.05)
         stretch = np.column_stack([np.interp(at, along, rest[:, 0]), np.interp(at, along, rest[:, 1])])
         self.closed = np.vstack([self.closed, stretch])
@@ -161,17 +162,19 @@ class Explorer:
         ok, cost, offset = passable(evidence(snapshot), resolution, c.robot_radius,
                                     self.method.costmap, snapshot.hits, origin, snapshot.trail)
         h, w = ok.shape
-        ok |= self._footprint(snapshot, here, start)
-        if len(self.closed):
-            cells = np.round((self.closed - origin) / resolution).astype(int)
-            cells = cells[(cells[:, 0] >= 0) & (cells[:, 0] < w) & (cells[:, 1] >= 0) & (cells[:, 1] < h)]
-            closed = np.zeros_like(ok)
-            closed[cells[:, 1], cells[:, 0]] = True
-            ok &= ~ndimage.binary_dilation(closed, np.ones((3, 3), bool))
+        ok = (ok | self._footprint(snapshot, here, start)) & ~self._closed_cells(ok.shape, origin, resolution)
         dist, parent = distance_field(ok, np.clip(start, 0, [w - 1, h - 1]), resolution, cost)
         reach = max(1, round(c.goals.reach / resolution))
         return Reachable(dist, parent, near_distance(dist, reach), reach, origin, resolution, here,
                          offset)
+
+    def _closed_cells(self, shape: tuple[int, int], origin: np.ndarray, resolution: float) -> np.ndarray:
+        """(h, w) bool: the cells of the closed stretches (``stuck``) and the cells beside them."""
+        closed = np.zeros(shape, dtype=bool)
+        cells = np.round((self.closed - origin) / resolution).astype(int)
+        inside = (cells[:, 0] >= 0) & (cells[:, 0] < shape[1]) & (cells[:, 1] >= 0) & (cells[:, 1] < shape[0])
+        closed[cells[inside, 1], cells[inside, 0]] = True
+        return ndimage.binary_dilation(closed, np.ones((3, 3), bool))
 
     def _footprint(self, snapshot: MapSnapshot, here: np.ndarray, start: np.ndarray) -> np.ndarray:
         """(h, w) bool: the cells within the robot's radius of its centre at ``here`` (cell
