@@ -124,6 +124,7 @@ class Navigator:
         self.follower = PathFollower(max_speed, max_turn_rate, config.follower)
         self.monitor = ProgressMonitor(config.stuck_steps, config.stuck_progress)
         self._spin_until: float | None = None if config.initial_spin else -math.inf
+        self._refused_since: float | None = None   # stamp since which the guard refuses to go on
 
     def spinning(self, stamp: float) -> bool:
         """Still turning once on the spot? The turn takes 2π / max_turn_rate seconds from the
@@ -140,7 +141,11 @@ class Navigator:
                 obstacles: np.ndarray = np.zeros((0, 2))) -> Command:
         """The command at ``pose`` for ``plan`` at scan time ``stamp`` (s): turn on the spot at
         first, then follow the path, no nearer to ``obstacles`` (k, 2), the scan's hits in the
-        robot frame (m), than the guard allows; none without a goal (exploration is over)."""
+        robot frame (m), than the guard allows; none without a goal (exploration is over).
+        The goal is abandoned ("stuck") after ``stuck_steps`` scans without progress, or once
+        the guard has refused every way forward for as long as a full turn on the spot takes
+        (2π / max_turn_rate): what lies ahead is narrower than the robot, and the monitor's
+        150 scans would be spent at it."""
         if self.spinning(stamp):
             return Command(0.0, self.follower.max_turn_rate)
         if plan.goal is None:
@@ -152,9 +157,17 @@ class Navigator:
             return Command(0.0, 0.0, "reached")
         if self.monitor.stuck(self.follower.remaining(pose, plan.path)):
             return Command(0.0, 0.0, "stuck")
-        return Command(*guarded(v, w, obstacles, self.radius, c.guard_clearance, c.guard_horizon,
-                                self.follower.max_turn_rate))
+        command = Command(*guarded(v, w, obstacles, self.radius, c.guard_clearance, c.guard_horizon,
+                                   self.follower.max_turn_rate))
+        if not (v > 0 and command.v == 0):
+            self._refused_since = None
+        elif self._refused_since is None:
+            self._refused_since = stamp
+        elif stamp - self._refused_since >= 2 * math.pi / self.follower.max_turn_rate - 1e-9:
+            return Command(0.0, 0.0, "stuck")
+        return command
 
     def new_goal(self) -> None:
         """The explorer chose a new goal: progress is measured afresh."""
         self.monitor.reset()
+        self._refused_since = None

@@ -208,3 +208,15 @@ def test_the_carrot_is_a_point_the_robot_can_drive_straight_to():
             break
         robot.move(command.v, command.w, DT)
     assert command.event == "reached" and robot.collisions == 0
+
+
+def test_a_guard_that_refuses_every_way_forward_for_a_full_turn_s_time_is_stuck():
+    """A wall 0.3 m ahead across the path: every arc comes within the radius (the test above),
+    so the guard turns the robot on the spot, scan after scan. After 2π / (π/2) = 4 s of that
+    (stamps T0 .. T0 + 4 s: the 9th scan) the goal is abandoned, long before the monitor's
+    stuck_steps (150 scans); a new goal starts the clock afresh."""
+    nav = navigator(initial_spin=False)
+    events = [nav.command(HERE, ahead_plan(), T0 + DT * k, wall_at(0.3)).event for k in range(10)]
+    assert events == [None] * 8 + ["stuck", "stuck"]
+    nav.new_goal()
+    assert nav.command(HERE, ahead_plan(), T0 + 5.0, wall_at(0.3)).event is None
