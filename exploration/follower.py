@@ -51,16 +51,16 @@ class PathFollower:
                 clear: Callable[[np.ndarray], bool] | None = None) -> tuple[float, float, bool]:
         """(v, w, reached) for the robot at ``pose`` following ``path`` (k, 2), in m/s, rad/s.
         ``clear(p)`` says whether the robot may drive straight to the point ``p`` (2,) in its
-        own frame (m): when the carrot is not, the first of ``_clear_carrots`` replaces it,
-        else it stays (in a passage barely wider than the robot no straight drive may keep the
-        guard's clearance, and a near carrot would only turn the robot on the spot); None:
-        every point is."""
+        own frame (m): the carrot is the first of ``_clear_carrots`` (the carrot itself when it
+        is clear), else it stays (in a passage barely wider than the robot no straight drive may
+        keep the guard's clearance, and a near carrot would only turn the robot on the spot);
+        None: every point is."""
         path = np.asarray(path, dtype=float).reshape(-1, 2)
         here = np.array([pose.x(), pose.y()])
         if np.linalg.norm(path[-1] - here) < self.config.tolerance:
             return 0.0, 0.0, True
         local = np.asarray(pose.transformTo(gtsam.Point2(*self._carrot(here, path, self.config.lookahead))))
-        if clear is not None and not clear(local):
+        if clear is not None:
             local = next(self._clear_carrots(pose, here, path, clear), local)
         bearing = math.atan2(local[1], local[0])
         w = float(np.clip(self.config.heading_gain * bearing, -self.max_turn_rate, self.max_turn_rate))

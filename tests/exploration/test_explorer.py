@@ -339,6 +339,21 @@ def test_stop_fires_on_an_observed_room_with_remnant_texture():
     assert plan.goal is None and plan.done == "frontiers_exhausted"
 
 
+def door_narrowed_to(low: float, high: float):
+    """``one_opening`` with its door walled down to rows 38-42 (y 3.8-4.2 m) and hits along the
+    wall's cells, plus jamb hits at y = ``low`` and ``high`` through the wall's depth (x 7.95-8.15
+    m): what range noise and pose error make of a door; no hit lies between the jambs."""
+    snapshot = room([("right", *DOOR, 10)])
+    for rows in (slice(DOOR[0], 38), slice(43, DOOR[1])):
+        snapshot.prob[rows, 80:82] = WALL
+        snapshot.prob_occ[rows, 80:82] = WALL
+    iy, ix = np.nonzero(snapshot.prob == WALL)
+    jambs = [(x, y) for x in np.linspace(7.95, 8.15, 5) for y in (low, high)]
+    hits = np.vstack([RES * np.column_stack([ix, iy]), jambs])
+    hits = hits[~((hits[:, 0] > 7.9) & (hits[:, 1] > low) & (hits[:, 1] < high))]
+    return dataclasses.replace(snapshot, hits=hits)
+
+
 def test_the_way_the_robot_came_is_a_way_back_through_a_door_the_map_narrowed():
     """The right door's hits leave 0.4 m between its jambs (y 3.8 and 4.2 m): less than the
     0.54 m a 0.25 m robot with the 0.02 m margin asks, less the 0.05 m a side a passage may
@@ -346,15 +361,7 @@ def test_the_way_the_robot_came_is_a_way_back_through_a_door_the_map_narrowed():
     centimetres to spare. Without its trail, no goal in or past the
     wall (x from 7.95 m) is reachable; with the trail of its drive in through the door at
     y = 4.0 m, the goal is, and the path into the wall runs on the trail."""
-    snapshot = room([("right", *DOOR, 10)])
-    for rows in (slice(DOOR[0], 38), slice(43, DOOR[1])):          # the door: rows 38-42
-        snapshot.prob[rows, 80:82] = WALL
-        snapshot.prob_occ[rows, 80:82] = WALL
-    iy, ix = np.nonzero(snapshot.prob == WALL)
-    jambs = [(x, y) for x in np.linspace(7.95, 8.15, 5) for y in (3.8, 4.2)]
-    hits = np.vstack([RES * np.column_stack([ix, iy]), jambs])
-    hits = hits[~((hits[:, 0] > 7.9) & (hits[:, 1] > 3.8) & (hits[:, 1] < 4.2))]
-    blind = dataclasses.replace(snapshot, hits=hits)
+    blind = door_narrowed_to(3.8, 4.2)
     plan = Explorer(ExplorerConfig()).plan(blind, ROBOT)
     assert plan.goal is None or plan.goal[0] < 7.95
 
@@ -421,15 +428,7 @@ def test_a_passage_the_robot_could_not_pass_is_closed_not_retried():
     through it (test_costmap). The robot, stuck 0.4 m short of the door on its way to a point
     past it, closes the 0.75 m of path ahead of it: nothing past the door is reachable any
     more, whatever frontier lies there, while the rest of the room, behind the robot, is."""
-    snapshot = room([("right", *DOOR, 10)])
-    for rows in (slice(DOOR[0], 38), slice(43, DOOR[1])):
-        snapshot.prob[rows, 80:82] = WALL
-        snapshot.prob_occ[rows, 80:82] = WALL
-    iy, ix = np.nonzero(snapshot.prob == WALL)
-    jambs = [(x, y) for x in np.linspace(7.95, 8.15, 5) for y in (3.77, 4.23)]
-    hits = np.vstack([RES * np.column_stack([ix, iy]), jambs])
-    hits = hits[~((hits[:, 0] > 7.9) & (hits[:, 1] > 3.77) & (hits[:, 1] < 4.23))]
-    snapshot = dataclasses.replace(snapshot, hits=hits)
+    snapshot = door_narrowed_to(3.77, 4.23)
     explorer = Explorer(ExplorerConfig())
     past = np.array([8.6, 4.0])
     reachable = explorer._reachable(snapshot, ROBOT)
