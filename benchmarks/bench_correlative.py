@@ -95,7 +95,7 @@ def main() -> None:
         scores.append(result.score)
         lattice.append(error(truth, result.pose))
 
-        submap = Submap.from_scans([gtsam.Pose2()], [ref_points], [scan_normals(ref_points, rconfig.normal_max_gap)],
+        submap = Submap.from_scans([gtsam.Pose2()], [ref_points], [scan_normals(ref_points, rconfig)],
                                    rconfig)
         from_match = registration.refine(points, submap, result.pose).pose
         from_truth = registration.refine(points, submap, truth).pose

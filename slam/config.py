@@ -29,6 +29,8 @@ class RegistrationConfig(_Config):
         "farther apart by r·sin Δφ / sin(λ − Δφ), their spacing on a surface seen at incidence λ from "
         "range r (an adaptive breakpoint, Borges & Aldon 2004): walls seen obliquely far down a "
         "corridor keep their normals and observe the heading; None: the fixed normal_max_gap alone")
+    normal_radius: float = Field(0.15, ge=0, description="a normal is the line fitted to the hits "
+                                 "within this of a point along its surface, at least ±2 beams (m)")
     min_sigma: float = Field(0.01, gt=0, description="floor of the residual standard deviation (m)")
     degenerate_eigenvalue: float = Field(0.03, ge=0, le=0.5,
                                          description="translation directions whose normalised point-to-line "

@@ -198,7 +198,7 @@ class LoopClosureDetector:
         ẑ_b = (x_ja⁻¹ x_jb)⁻¹ · z_a · (x_ka⁻¹ x_kb), must agree with z_b."""
         c = self.config
         ja, ka, jb, kb = a.candidate.j, a.candidate.k, b.candidate.j, b.candidate.k
-        if ka == kb:
+        if ka == kb or abs(ja - jb) <= 2 * c.neighbour_keyframes:
             return False
         predicted = graph.pose(ja).between(graph.pose(jb)).inverse().compose(a.match.pose).compose(
             graph.pose(ka).between(graph.pose(kb)))

@@ -64,8 +64,7 @@ class PoseSlam:
         """Track the scan, make it a keyframe if it is informative, then close loops from it
         (``given``, a known pose, is not used: Pose SLAM localises by itself)."""
         points = scan.points()
-        registration = self.config.front_end.registration
-        normals = scan_normals(points, registration.normal_max_gap, registration.normal_min_incidence_deg)
+        normals = scan_normals(points, self.config.front_end.registration)
         if any(self.config.laser_offset):                    # sensor frame → base frame
             points = transform(self.laser_offset, points)
             normals = transform(gtsam.Pose2(0.0, 0.0, self.laser_offset.theta()), normals)

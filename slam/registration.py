@@ -16,37 +16,61 @@ from slam.config import RegistrationConfig
 from slam.kiss_icp_adapter import Icp, VoxelMap, matrix_pose, pose_matrix, voxel_down_sample
 
 
-def scan_normals(points: np.ndarray, max_gap: float, min_incidence_deg: float | None = None) -> np.ndarray:
-    """(m, 2) unit normals of beam-ordered points from their ±2 neighbours; NaN where the
-    neighbours are missing or farther apart than the gap allowed (a jump edge).
+def scan_normals(points: np.ndarray, config: RegistrationConfig) -> np.ndarray:
+    """(m, 2) unit normals of beam-ordered sensor-frame points, each turned towards the sensor (the
+    side of the surface it was seen from); NaN where a point's ±2 neighbours are missing or one of
+    the gaps between them is a jump edge.
 
-    The gap allowed between neighbours is ``max_gap`` (m); with ``min_incidence_deg`` (λ) it grows
-    by the spacing of two beams Δφ apart on a surface seen at incidence λ from the nearer range r,
-    r·sin Δφ / sin(λ − Δφ) (the adaptive breakpoint of Borges & Aldon 2004), so a wall seen
-    obliquely far down a corridor keeps its normals. That needs ``points`` in the sensor's frame
-    (the laser at the origin); the fixed gap alone holds in any frame.
+    A normal is the line fitted (principal axis) to the point's neighbours on its surface: at
+    least ±2 beams, and as many more as lie within ``normal_radius`` of it along the surface
+    (measured as r·Δφ, their spacing were the surface square to the beams). Beams a fraction of a
+    degree apart on a wall a metre away lie millimetres apart, within the range noise: normals
+    from ±2 of them point anywhere, and the match takes them for evidence along the wall.
+
+    Neighbouring hits farther apart than ``normal_max_gap`` (m) are a jump edge; with
+    ``normal_min_incidence_deg`` (λ) the gap allowed grows by the spacing of two beams Δφ apart on
+    a surface seen at incidence λ from the nearer range r, r·sin Δφ / sin(λ − Δφ) (the adaptive
+    breakpoint of Borges & Aldon 2004), so a wall seen obliquely far down a corridor keeps its
+    normals.
     """
     m = len(points)
     normals = np.full((m, 2), np.nan)
     if m < 5:
         return normals
     gaps = np.linalg.norm(np.diff(points, axis=0), axis=1)
-    limit = np.full(m - 1, float(max_gap))
-    if min_incidence_deg is not None:
-        incidence = np.radians(min_incidence_deg)
-        bearing = np.arctan2(points[:, 1], points[:, 0])
-        step = np.abs(np.angle(np.exp(1j * np.diff(bearing))))
-        nearer = np.minimum(np.linalg.norm(points[:-1], axis=1), np.linalg.norm(points[1:], axis=1))
+    limit = np.full(m - 1, float(config.normal_max_gap))
+    ranges = np.linalg.norm(points, axis=1)
+    bearing = np.arctan2(points[:, 1], points[:, 0])
+    step = np.abs(np.angle(np.exp(1j * np.diff(bearing))))
+    if config.normal_min_incidence_deg is not None:
+        incidence = np.radians(config.normal_min_incidence_deg)
+        nearer = np.minimum(ranges[:-1], ranges[1:])
         oblique = step < incidence
         limit[oblique] += nearer[oblique] * np.sin(step[oblique]) / np.sin(incidence - step[oblique])
     close = gaps < limit
     ok = np.zeros(m, bool)
     ok[2:-2] = close[:-3] & close[1:-2] & close[2:-1] & close[3:]
-    tangent = points[4:] - points[:-4]
-    length = np.linalg.norm(tangent, axis=1)
-    ok[2:-2] &= length > 1e-6
-    t = tangent / np.maximum(length, 1e-12)[:, None]
-    normals[2:-2] = np.column_stack([-t[:, 1], t[:, 0]])
+    # the window of each point: its surface (no jump edge) within normal_radius, at least ±2 beams
+    surface = np.concatenate([[0], np.cumsum(~close)])
+    first = np.searchsorted(surface, surface, side="left")
+    last = np.searchsorted(surface, surface, side="right") - 1
+    along = np.concatenate([[0.0], np.cumsum(np.minimum(ranges[:-1], ranges[1:]) * step)])
+    index = np.arange(m)
+    lo = np.maximum(np.minimum(np.searchsorted(along, along - config.normal_radius, side="left"), index - 2), first)
+    hi = np.minimum(np.maximum(np.searchsorted(along, along + config.normal_radius, side="right") - 1, index + 2),
+                    last)
+    x, y = points[:, 0], points[:, 1]
+    sums = np.vstack([np.zeros(5), np.cumsum(np.column_stack([x, y, x * x, x * y, y * y]), axis=0)])
+    window = sums[hi + 1] - sums[lo]
+    count = (hi - lo + 1).astype(float)
+    mx, my = window[:, 0] / count, window[:, 1] / count
+    cxx = window[:, 2] / count - mx * mx
+    cxy = window[:, 3] / count - mx * my
+    cyy = window[:, 4] / count - my * my
+    axis = 0.5 * np.arctan2(2.0 * cxy, cxx - cyy)         # the fitted line's direction
+    normals = np.column_stack([-np.sin(axis), np.cos(axis)])
+    normals[np.sum(normals * points, axis=1) > 0] *= -1.0
+    ok &= cxx + cyy > 1e-12
     normals[~ok] = np.nan
     return normals
 
@@ -63,7 +87,8 @@ class Submap:
 
     Args:
         points: (n, 2) points in the submap frame.
-        normals: (n, 2) unit normals (NaN where unknown).
+        normals: (n, 2) unit normals, each on the side its surface was seen from (NaN where
+            unknown).
     """
 
     def __init__(self, points: np.ndarray, normals: np.ndarray, config: RegistrationConfig):
@@ -80,6 +105,17 @@ class Submap:
             voxel_map.add(self.points)
             self._voxel_maps[size] = voxel_map
         return self._voxel_maps[size]
+
+    def seen_from(self, sensor: np.ndarray) -> "Submap":
+        """The points a sensor at ``sensor`` (2,) can see the faces of: those whose normal turns
+        towards it, and those with no normal. A wall's far face lies a wall's thickness from its
+        near face; a scan from one side matched to the other would be off by that much (a robot
+        back from a room through its door, a loop closed across a thin wall)."""
+        away = np.sum(self.normals * (np.asarray(sensor) - self.points), axis=1) < 0
+        if not away.any():
+            return self
+        keep = ~away
+        return Submap(self.points[keep], self.normals[keep], self.config)
 
     @classmethod
     def from_scans(cls, poses: list[gtsam.Pose2], points: list[np.ndarray], normals: list[np.ndarray],
@@ -138,7 +174,8 @@ class Registration:
 
     def refine(self, points: np.ndarray, submap: Submap, pose: gtsam.Pose2,
                prior: tuple[gtsam.Pose2, np.ndarray] | None = None) -> Match:
-        """Point-to-line Gauss–Newton from ``pose`` with a Cauchy kernel.
+        """Point-to-line Gauss–Newton from ``pose`` with a Cauchy kernel, on the submap's
+        points whose faces the scan's sensor (at ``pose``) can see.
 
         ``prior`` = (predicted pose, (3, 3) information) adds the wheel odometry's prediction as a
         Gaussian prior on the pose, so directions the scene cannot constrain (a featureless
@@ -148,6 +185,7 @@ class Registration:
         degenerate = np.zeros((0, 3))
         hessian, sigma, inliers = np.zeros((3, 3)), c.min_sigma, 0.0
         start = pose
+        submap = submap.seen_from([pose.x(), pose.y()])
         prior_info = prior[1] if prior is not None else np.zeros((3, 3))
         for iteration in range(c.refine_iterations + 1):
             world = transform(pose, points)

@@ -64,9 +64,8 @@ def survey(truth, believed, sigma=LINK_SIGMA):
     graph.add_first(believed[0])
     for a, b in zip(believed[:-1], believed[1:]):
         graph.add_keyframe(a.between(b), np.diag(sigma**2))
-    gap = RegistrationConfig().normal_max_gap
     points = [cast(p, BUILDING).points() for p in truth]
-    return graph, [(q, scan_normals(q, gap)) for q in points]
+    return graph, [(q, scan_normals(q, RegistrationConfig())) for q in points]
 
 
 def revisit(drift: gtsam.Pose2, sigma=LINK_SIGMA, keyframes=None, believed=None):

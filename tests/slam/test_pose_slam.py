@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from slam.back_end import PoseGraph
-from slam.config import SlamConfig
+from slam.config import RegistrationConfig, SlamConfig
 from slam.front_end import ScanOdometry
 from slam.loop_closure import Candidate, LoopClosureDetector
 from slam.pose_slam import PoseSlam
@@ -69,7 +69,7 @@ def test_with_wheels_the_corridor_axis_follows_the_odometry():
     scan = cast(start, CORRIDOR)
     points = scan.points()
     front.track(points, start)
-    front.add_keyframe(front.pose, points, scan_normals(points, 0.3))
+    front.add_keyframe(front.pose, points, scan_normals(points, RegistrationConfig()))
     truth = gtsam.Pose2(0.6, 1.04, 0.02)
     wheel = gtsam.Pose2(0.55, 1.0, 0.0)               # 5 cm short along x, 4 cm off across
     tracked = front.track(cast(truth, CORRIDOR).points(), wheel)
@@ -94,7 +94,7 @@ def test_a_loop_candidate_without_points_is_no_match():
     scans = []
     for k in range(3):
         points = cast(gtsam.Pose2(0.5 * k, 0.0, 0.0), room).points()
-        scans.append((points, scan_normals(points, 0.3)))
+        scans.append((points, scan_normals(points, RegistrationConfig())))
     scans.append((np.zeros((0, 2)), np.zeros((0, 2))))
     detector = LoopClosureDetector(SlamConfig().loop_closure.model_copy(update={"min_keyframe_gap": 1}))
     predicted, covariance = graph.relative(0, 3)
@@ -131,7 +131,7 @@ def test_tracking_without_odometry_survives_a_jump_of_metres():
     start, truth = gtsam.Pose2(1.5, 1.5, 0.3), gtsam.Pose2(3.3, 2.5, 0.3 + math.radians(40))
     scan = cast(start, ROOM)
     front.track(scan.points(), None)
-    front.add_keyframe(front.pose, scan.points(), scan_normals(scan.points(), 0.3))
+    front.add_keyframe(front.pose, scan.points(), scan_normals(scan.points(), RegistrationConfig()))
     tracked = front.track(cast(truth, ROOM).points(), None)
     error = tracked.pose.between(start.between(truth))        # the front end's frame: the first scan
     assert front.counts["correlative_matches"] == 1
@@ -155,7 +155,7 @@ def test_a_loop_after_metres_of_drift_is_verified_from_a_poor_guess():
     scans = []
     for p in truth:
         points = cast(p, ROOM).points()
-        scans.append((points, scan_normals(points, 0.3)))
+        scans.append((points, scan_normals(points, RegistrationConfig())))
     config = SlamConfig().loop_closure.model_copy(update={"min_keyframe_gap": 3, "neighbour_keyframes": 1})
     detector = LoopClosureDetector(config)
     predicted, covariance = graph.relative(0, 5)

@@ -20,7 +20,7 @@ CORRIDOR = [(1, 0.0, -50, 50), (1, 2.0, -50, 50)]
 
 def submap_from(scan: LaserScan, pose: gtsam.Pose2, config):
     pts = scan.points()
-    return Submap.from_scans([pose], [pts], [scan_normals(pts, config.normal_max_gap)], config)
+    return Submap.from_scans([pose], [pts], [scan_normals(pts, config)], config)
 
 
 @pytest.mark.parametrize("offset", [(0.05, -0.03, 2.0), (0.4, 0.3, 8.0), (-0.8, 0.5, -12.0)])
@@ -68,8 +68,8 @@ def test_adaptive_breakpoint_keeps_normals_of_an_oblique_wall_but_not_across_a_j
     on_far = np.isclose(points[:, 1], far)
     gap = np.linalg.norm(np.diff(points, axis=0), axis=1)
     assert gap[on_far[:-1] & on_far[1:]].min() > 0.3
-    fixed = scan_normals(points, 0.3)
-    adaptive = scan_normals(points, 0.3, incidence)
+    fixed = scan_normals(points, RegistrationConfig())
+    adaptive = scan_normals(points, RegistrationConfig(normal_min_incidence_deg=incidence))
     assert np.all(np.isnan(fixed[on_far]))
     jump = int(np.flatnonzero(on_far)[-1])                 # the last far hit, next to the near wall
     inner = on_far & (bearing - 2 * step >= math.radians(incidence))
@@ -95,7 +95,7 @@ def test_corridor_walls_seen_only_far_ahead_give_the_heading_with_the_adaptive_b
     config = RegistrationConfig(min_points=10)
     results = {}
     for incidence in (None, 5.0):
-        normals = scan_normals(points, config.normal_max_gap, incidence)
+        normals = scan_normals(points, config.model_copy(update={"normal_min_incidence_deg": incidence}))
         submap = Submap.from_scans([reference], [points], [normals], config)
         results[incidence] = Registration(config).refine(scan, submap, gtsam.Pose2(0.3, 0.0, 0.0))
     assert not results[None].information.any()
