@@ -82,6 +82,9 @@ class FrontEndConfig(_Config):
                                                    "prediction is good; the full schedule runs on a poor fit)")
     retry_inlier_fraction: float = Field(0.7, ge=0, le=1,
                                          description="below this, track again from the coarsest level")
+    wheel_gate_probability: float = Field(0.999, gt=0, lt=1, description="a retried match beyond the χ²(3) "
+                                          "quantile at this probability of the wheels' prediction replaces a "
+                                          "nearer one only if it leaves at most half as many points unexplained")
     submap_keyframes: int = Field(10, ge=1, description="recent keyframes in the local submap")
     odometry: OdometryModel = OdometryModel()
     correlative: CorrelativeConfig = Field(

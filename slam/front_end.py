@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import gtsam
 import numpy as np
+from scipy.stats import chi2
 
 from slam.config import FrontEndConfig
 from slam.correlative import CorrelativeGrid
@@ -107,7 +108,7 @@ class ScanOdometry:
             if with_prior and prior is None:
                 continue
             other = self.registration.register(points, self._submap, start, prior if with_prior else None)
-            if other.inlier_fraction > match.inlier_fraction + 0.02:
+            if self._explains_more(other, match, prior):
                 match = other
         if match.inlier_fraction < c.retry_inlier_fraction:
             self.counts["correlative_searches"] += 1
@@ -122,10 +123,24 @@ class ScanOdometry:
             if found is not None:
                 fine = len(c.registration.voxel_sizes) - 1
                 other = self.registration.register(points, self._submap, found.pose, start_level=fine)
-                if other.inlier_fraction > match.inlier_fraction + 0.02:
+                if self._explains_more(other, match, prior):
                     self.counts["correlative_matches"] += 1
                     match = other
         return match
+
+    def _explains_more(self, other: Match, match: Match, prior) -> bool:
+        """Does ``other`` explain more of the scan than ``match``? A pose the wheels rule out
+        (beyond their χ²(3) gate at ``wheel_gate_probability``) must leave at most half as many
+        points unexplained: near a wall or in a corridor a slid match can explain a few more
+        points than the true one, and a wheel slip leaves most of the scan unexplained."""
+        if other.inlier_fraction <= match.inlier_fraction + 0.02:
+            return False
+        if prior is None:
+            return True
+        error = prior[0].localCoordinates(other.pose)
+        if error @ prior[1] @ error <= chi2.ppf(self.config.wheel_gate_probability, 3):
+            return True
+        return 1.0 - other.inlier_fraction <= 0.5 * (1.0 - match.inlier_fraction)
 
     def _correlative_grid(self) -> CorrelativeGrid:
         if self._grid is None:
