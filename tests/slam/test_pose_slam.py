@@ -12,7 +12,7 @@ from slam.config import RegistrationConfig, SlamConfig
 from slam.front_end import ScanOdometry
 from slam.loop_closure import Candidate, LoopClosureDetector
 from slam.pose_slam import PoseSlam
-from slam.registration import scan_normals
+from slam.registration import Match, scan_normals
 from wall_scans import cast
 
 CORRIDOR = [(1, 0.0, -50, 50), (1, 2.0, -50, 50)]          # two walls along x, 2 m apart
@@ -188,3 +188,22 @@ def test_graduated_non_convexity_takes_a_false_loop_out():
     assert len([e for e in graph.edges if e[4]]) == 1
     for k in range(12):
         assert graph.pose(k).equals(reference[k], 1e-3)
+
+
+def test_a_retried_match_the_wheels_rule_out_must_explain_far_more():
+    """Near a wall a match slid 0.27 m from the wheels' prediction explained 2 % more of the scan
+    than the true one and replaced it (the simulated lab_f, step 4804). A pose beyond the wheels'
+    χ²(3) gate wins only by leaving at most half as many points unexplained (a wheel slip leaves
+    most of the scan unexplained); within the gate, explaining more is enough."""
+    front = ScanOdometry()
+    guess = gtsam.Pose2(1.0, 2.0, 0.3)
+    prior = (guess, np.linalg.inv(front.odometry_covariance(gtsam.Pose2(0.05, 0.0, 0.0))))
+
+    def match(pose, inliers):
+        return Match(pose, np.eye(3), inliers, np.zeros((0, 3)), 0.01)
+
+    near, slid = guess.compose(gtsam.Pose2(0.002, 0.0, 0.0)), guess.compose(gtsam.Pose2(-0.24, 0.17, 0.0))
+    assert not front._explains_more(match(slid, 0.69), match(near, 0.665), prior)
+    assert front._explains_more(match(slid, 0.85), match(near, 0.665), prior)
+    assert front._explains_more(match(near, 0.69), match(guess, 0.665), prior)
+    assert front._explains_more(match(slid, 0.69), match(near, 0.665), None)      # no wheels: no gate

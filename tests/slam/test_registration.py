@@ -148,3 +148,57 @@ def test_icp_recovers_a_small_offset_of_an_l_shaped_wall():
     error = truth.between(pose)
     assert math.hypot(error.x(), error.y()) < 1e-6 and abs(error.theta()) < 1e-6
     assert pose.equals(icp.align(body, voxel_map, pose_matrix(guess), 0.5, 0.1), 0.0)   # 4×4 start alike
+
+
+def _noisy(scan: LaserScan, sigma: float, seed: int) -> LaserScan:
+    """``scan`` with N(0, sigma²) range noise on its hits, seeded."""
+    ranges = scan.ranges + np.random.default_rng(seed).normal(0.0, sigma, scan.ranges.shape)
+    return LaserScan(ranges, scan.angles, scan.max_range)
+
+
+def test_normals_of_a_wall_close_by_are_the_wall_s_despite_range_noise():
+    """A wall 0.4 m ahead of a 0.5° laser with 1 cm range noise: neighbouring hits lie 3.5 mm apart,
+    within the noise, so a normal from ±2 of them points anywhere. Fitted over ±0.15 m of the wall
+    (about 85 hits) its angle has an s.d. of σ·√(12/n)/L ≈ 0.01·√(12/85)/0.3 rad ≈ 0.7°: every
+    normal lies within 5° of the wall's, turned towards the sensor."""
+    wall = [(1, 0.4, -0.6, 0.6)]
+    scan = _noisy(cast(gtsam.Pose2(0.0, 0.0, math.pi / 2), wall), 0.01, seed=3)
+    points = scan.points()
+    inner = np.abs(np.arctan2(points[:, 1], points[:, 0])) < math.radians(50)   # not the wall's ends
+    fitted = scan_normals(points, RegistrationConfig())
+    assert np.all(fitted[inner, 0] < -math.cos(math.radians(5)))   # sensor frame: the wall is at x = 0.4
+    few = scan_normals(points, RegistrationConfig(normal_radius=0.0))
+    assert np.mean(np.abs(few[inner, 1]) > math.sin(math.radians(15))) > 0.3
+
+
+def test_a_narrow_corridor_is_degenerate_along_its_axis_despite_range_noise():
+    """A corridor 0.8 m wide with 1 cm range noise: the walls say nothing along the axis. Normals
+    from ±2 neighbours 3–4 mm apart scatter, and their spread reads as information along the
+    corridor; fitted over 0.15 m of wall they do not, and the axis is found unobservable."""
+    corridor = [(1, 0.0, -50, 50), (1, 0.8, -50, 50)]
+    reference, truth = gtsam.Pose2(0.0, 0.4, 0.0), gtsam.Pose2(0.3, 0.41, 0.01)
+    for radius, degenerate in ((0.15, 1), (0.0, 0)):
+        config = RegistrationConfig(normal_radius=radius)
+        submap = submap_from(_noisy(cast(reference, corridor), 0.01, seed=1), reference, config)
+        points = _noisy(cast(truth, corridor), 0.01, seed=2).points()
+        match = Registration(config).refine(points, submap, gtsam.Pose2(0.3, 0.4, 0.0))
+        assert len(match.degenerate) == degenerate
+    assert abs(match.pose.y() - truth.y()) < 0.003
+
+
+def test_a_scan_of_a_wall_s_far_face_is_not_matched_to_its_near_face():
+    """A 0.1 m wall with a door, faces y = 0 (the corridor's side) and y = 0.1 (the room's). The
+    submap saw the corridor's face from below and the room's side walls from the door; a scan from
+    the room, facing the wall, sees the room's face. Only the faces decide y: matched to the
+    corridor's face the scan would be 0.1 m off; faces the sensor cannot see are no match for it,
+    and y stays where it is (at the truth here)."""
+    door = (-0.5, 0.5)
+    walls = [(1, 0.0, -3.0, door[0]), (1, 0.0, door[1], 3.0), (1, 0.1, -3.0, door[0]), (1, 0.1, door[1], 3.0),
+             (0, -3.0, 0.1, 5.0), (0, 3.0, 0.1, 5.0), (1, 5.0, -3.0, 3.0)]
+    config = RegistrationConfig()
+    keyframes = [gtsam.Pose2(0.0, -1.0, math.pi / 2), gtsam.Pose2(0.0, 0.6, math.pi / 2)]
+    clouds = [cast(p, walls).points() for p in keyframes]
+    submap = Submap.from_scans(keyframes, clouds, [scan_normals(c, config) for c in clouds], config)
+    truth = gtsam.Pose2(0.2, 2.0, -math.pi / 2)
+    match = Registration(config).refine(cast(truth, walls).points(), submap, truth)
+    assert abs(match.pose.y() - truth.y()) < 0.01
