@@ -13,7 +13,7 @@ from scipy.stats import chi2
 from slam.config import FrontEndConfig
 from slam.correlative import CorrelativeGrid
 from slam.correlative import match as correlative_match
-from slam.registration import Match, Registration, Submap
+from slam.registration import Match, Registration, Submap, explains_far_more
 
 
 @dataclass
@@ -130,9 +130,8 @@ class ScanOdometry:
 
     def _explains_more(self, other: Match, match: Match, prior) -> bool:
         """Does ``other`` explain more of the scan than ``match``? A pose the wheels rule out
-        (beyond their χ²(3) gate at ``wheel_gate_probability``) must leave at most half as many
-        points unexplained: near a wall or in a corridor a slid match can explain a few more
-        points than the true one, and a wheel slip leaves most of the scan unexplained."""
+        (beyond their χ²(3) gate at ``wheel_gate_probability``) must explain far more
+        (``explains_far_more``): a wheel slip leaves most of the scan unexplained."""
         if other.inlier_fraction <= match.inlier_fraction + 0.02:
             return False
         if prior is None:
@@ -140,7 +139,7 @@ class ScanOdometry:
         error = prior[0].localCoordinates(other.pose)
         if error @ prior[1] @ error <= chi2.ppf(self.config.wheel_gate_probability, 3):
             return True
-        return 1.0 - other.inlier_fraction <= 0.5 * (1.0 - match.inlier_fraction)
+        return explains_far_more(other, match)
 
     def _correlative_grid(self) -> CorrelativeGrid:
         if self._grid is None:

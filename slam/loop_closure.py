@@ -14,7 +14,7 @@ from slam.back_end import PoseGraph
 from slam.config import LoopClosureConfig, RegistrationConfig
 from slam.correlative import CorrelativeGrid
 from slam.correlative import match as correlative_match
-from slam.registration import Match, Registration, Submap, transform
+from slam.registration import Match, Registration, Submap, explains_far_more, transform
 
 
 @dataclass
@@ -138,6 +138,9 @@ class LoopClosureDetector:
             found = self._correlative(candidate, points, submap, [xj.between(graph.pose(i)) for i in members],
                                       [scans[i][0] for i in members])
             if found is not None and found.inlier_fraction > best.inlier_fraction:
+                if not (self._same_place(found.pose, best.pose) or explains_far_more(found, best)):
+                    self.rejected["ambiguous"] += 1     # two places explain the scan about as well
+                    return None
                 best = found
         if best.inlier_fraction < c.min_inlier_fraction:
             self.rejected["inliers"] += 1
@@ -151,6 +154,12 @@ class LoopClosureDetector:
         error = candidate.predicted.localCoordinates(best.pose)
         d2 = float(error @ np.linalg.solve(candidate.covariance + best.covariance, error))
         return LoopClosure(candidate, best, d2)
+
+    def _same_place(self, a: gtsam.Pose2, b: gtsam.Pose2) -> bool:
+        """Are two poses one within the symmetry tolerances?"""
+        d = a.between(b)
+        return bool(np.hypot(d.x(), d.y()) < self.config.symmetry_translation
+                    and abs(d.theta()) < np.radians(self.config.symmetry_rotation_deg))
 
     def _poor_guess(self, candidate: Candidate) -> bool:
         """Is the graph's prediction too uncertain for registration's basin (about a voxel)?"""
@@ -188,9 +197,7 @@ class LoopClosureDetector:
                                    self.registration.config)
         coarse = min(c.coarse_levels, len(self.registration.config.voxel_sizes) - 1)
         back = self.registration.register(scans[j][0], submap, match.pose.inverse(), start_level=coarse)
-        loop = match.pose.compose(back.pose)
-        return bool(np.hypot(loop.x(), loop.y()) < c.symmetry_translation
-                    and abs(loop.theta()) < np.radians(c.symmetry_rotation_deg))
+        return self._same_place(match.pose.inverse(), back.pose)
 
     def consistent(self, a: LoopClosure, b: LoopClosure, graph: PoseGraph) -> bool:
         """Pairwise consistency of two loops from different keyframes: b's measurement predicted

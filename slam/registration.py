@@ -154,6 +154,13 @@ class Match:
         return np.linalg.inv(self.information + 1e-6 * np.eye(3))
 
 
+def explains_far_more(match: Match, other: Match) -> bool:
+    """Does ``match`` leave at most half as many of the scan's points unexplained as ``other``? A
+    match in another place than a plausible one must, to replace it: in a corridor or near a
+    wall a slid match can explain a few more points than the true one."""
+    return 1.0 - match.inlier_fraction <= 0.5 * (1.0 - other.inlier_fraction)
+
+
 class Registration:
     """KISS-ICP registration (point-to-point, robust kernel) coarse to fine over the voxel sizes,
     then Gauss–Newton point-to-line refinement with a Cauchy kernel."""
