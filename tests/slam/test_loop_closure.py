@@ -168,6 +168,38 @@ def test_reverse_registration_rejects_a_loop_biased_by_a_broken_submap(monkeypat
     assert dxy > 0.1 or dtheta > math.radians(2.0)                        # a loop that much off gets in
 
 
+def test_a_correlative_match_elsewhere_must_explain_far_more_than_the_local_one(monkeypatch):
+    # a poor guess sends the candidate to the correlative search; a corridor's aliases (office_f:
+    # loops slid 0.9-1.7 m along it) explain a few more points than the true place, because
+    # sliding the scan along brings more of it over the submap. A match in another place replaces
+    # the local one only by leaving at most half as many points unexplained; otherwise the
+    # candidate is ambiguous
+    truth, graph, features, n = revisit(gtsam.Pose2(), keyframes=FACING_DOOR + 1)
+    j, k = FACING_DOOR, n + FACING_DOOR
+    points, normals = features[k]           # 5 cm range noise: some of k's points are unexplained
+    features[k] = (points + np.random.default_rng(0).normal(0.0, 0.05, points.shape), normals)
+    predicted, _ = graph.relative(j, k)
+    candidate = Candidate(j, k, predicted, np.diag([0.5, 0.5, 0.1]) ** 2, 1.0, 0.0)
+    elsewhere = predicted.compose(gtsam.Pose2(1.0, 0.0, 0.0))
+    for unexplained, accepted in ((0.8, False), (0.4, True)):
+        detector = LoopClosureDetector()
+        found = []
+
+        def correlative(candidate, points, submap, *rest):
+            here = detector.registration.register(points, submap, candidate.predicted)
+            found.append(here)
+            slid = 1.0 - unexplained * (1.0 - here.inlier_fraction)
+            return replace(here, pose=elsewhere, inlier_fraction=slid)
+        monkeypatch.setattr(detector, "_correlative", correlative)
+        monkeypatch.setattr(detector, "_symmetric", lambda *args: True)
+        loop = detector.verify(candidate, graph, features)
+        assert found and found[0].inlier_fraction < 0.99
+        if accepted:
+            assert loop is not None and loop.match.pose.equals(elsewhere, 1e-9)
+        else:
+            assert loop is None and detector.rejected == {"ambiguous": 1}
+
+
 def test_mahalanobis_gate_rejects_a_loop_the_graph_contradicts():
     # a confident graph (σ 1 cm, 0.11° per link) that drifted 1.2 m and 12°: the loop is verified
     # (the scene is right) but lies far outside the graph's prediction
