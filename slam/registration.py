@@ -96,7 +96,8 @@ class Submap:
         self.normals = normals
         self.config = config
         self._voxel_maps: dict[float, VoxelMap] = {}
-        self.tree = cKDTree(points)
+        self.tree = cKDTree(points, balanced_tree=False, compact_nodes=False)   # built per submap: fast builds
+        self._seen: tuple[np.ndarray, Submap] | None = None   # the last faces seen_from kept
 
     def voxel_map(self, size: float) -> VoxelMap:
         """The KISS-ICP voxel map at ``size`` m, built on first use."""
@@ -114,8 +115,10 @@ class Submap:
         away = np.sum(self.normals * (np.asarray(sensor) - self.points), axis=1) < 0
         if not away.any():
             return self
-        keep = ~away
-        return Submap(self.points[keep], self.normals[keep], self.config)
+        if self._seen is None or not np.array_equal(self._seen[0], away):   # the same faces: reused
+            keep = ~away
+            self._seen = (away, Submap(self.points[keep], self.normals[keep], self.config))
+        return self._seen[1]
 
     @classmethod
     def from_scans(cls, poses: list[gtsam.Pose2], points: list[np.ndarray], normals: list[np.ndarray],
