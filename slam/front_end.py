@@ -98,7 +98,7 @@ class ScanOdometry:
         coarse-to-fine schedule, with and without the odometry prior and from the constant-velocity
         prediction too (wheel odometry can stall or jump); if the fit is still poor, the correlative
         search over metres and tens of degrees around the prediction, refined. Whichever explains
-        most points wins."""
+        most points wins (``_explains_more``: one the wheels rule out must explain far more)."""
         c = self.config
         match = self.registration.register(points, self._submap, guess, prior, start_level=c.start_level)
         if match.inlier_fraction >= c.retry_inlier_fraction:
