@@ -10,7 +10,6 @@ from typing import Literal
 import gtsam
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
-from scipy.spatial import cKDTree
 
 from exploration.explorer import Plan
 from exploration.follower import FollowerConfig, PathFollower
@@ -70,17 +69,37 @@ class Command:
     event: Literal["reached", "stuck"] | None = None
 
 
+def clearance_kept(obstacles: np.ndarray, radius: float, clearance: float) -> np.ndarray:
+    """(k,) how near (m) a move may bring the robot's centre to each point of ``obstacles``
+    (k, 2), the scan's hits in the robot frame: ``radius + clearance``; where the robot
+    already stands nearer, ``clearance`` nearer than it stands, but not within ``radius``; to
+    a point within ``radius`` (range noise put it there), no nearer than it is.
+
+    The nearest of a scan's hits is as noisy as the rest (``clearance`` is 2 σ of the range
+    noise), and a move sweeps past hits the robot has not had beside it, the nearest of which
+    reads nearer again: a rule of "no nearer than now" refused every way into a passage 5 cm
+    wider than the robot (lab_e's doors). And a point read within the radius must not lower
+    what the others keep: it let a turn take the robot's disc into the opposite wall."""
+    d = np.linalg.norm(obstacles, axis=1)
+    touching = d < radius
+    nearest = d[~touching].min() if np.any(~touching) else np.inf
+    allowed = np.full(len(d), min(radius + clearance, max(nearest - clearance, radius)))
+    allowed[touching] = d[touching]
+    return allowed
+
+
 def guarded(v: float, w: float, obstacles: np.ndarray, radius: float, clearance: float,
             horizon: float, max_turn_rate: float) -> tuple[float, float]:
     """The command nearest to (``v``, ``w``) (m/s, rad/s) whose arc over ``horizon`` seconds
-    keeps a disc of ``radius`` farther than ``radius + clearance`` from every point of
-    ``obstacles`` (k, 2), in the robot frame (m), or no nearer than it already is: the speed
-    v, v/2 or v/4 first, then the turn rate moved towards either side in steps of a quarter
-    of ``max_turn_rate``; else (0, w): a disc turning on the spot cannot hit anything."""
+    keeps the robot's centre as far from every point of ``obstacles`` (k, 2), in the robot
+    frame (m), as ``clearance_kept`` allows: the speed v, v/2 or v/4 first, then the turn
+    rate moved towards either side in steps of a quarter of ``max_turn_rate``; else (0, w): a
+    disc turning on the spot cannot hit anything."""
     if v <= 0 or len(obstacles) == 0:
         return v, w
-    tree = cKDTree(obstacles)
-    allowed = min(radius + clearance, float(tree.query([0.0, 0.0])[0]))
+    allowed = clearance_kept(obstacles, radius, clearance)
+    near = np.linalg.norm(obstacles, axis=1) < v * horizon + allowed
+    obstacles, allowed = obstacles[near], allowed[near]
     t = np.linspace(0.0, horizon, 9)[1:]
     turns = w + max_turn_rate * np.array([0.0, 0.25, -0.25, 0.5, -0.5, 1.0, -1.0])
     for turn in turns[np.abs(turns) <= max_turn_rate + 1e-9]:
@@ -89,21 +108,22 @@ def guarded(v: float, w: float, obstacles: np.ndarray, radius: float, clearance:
                 arc = np.column_stack([speed * t, np.zeros_like(t)])
             else:
                 arc = np.column_stack([np.sin(turn * t), 1.0 - np.cos(turn * t)]) * (speed / turn)
-            if tree.query(arc)[0].min() >= allowed:
+            gap = np.linalg.norm(arc[:, None] - obstacles[None], axis=2).min(axis=0, initial=np.inf)
+            if np.all(gap >= allowed):
                 return speed, float(turn)
     return 0.0, w
 
 
 def straight_clear(to: np.ndarray, obstacles: np.ndarray, radius: float, clearance: float) -> bool:
-    """Can a disc of ``radius`` drive straight from the origin to ``to`` (2,) keeping farther
-    than ``radius + clearance`` from every point of ``obstacles`` (k, 2), or no nearer than it
-    already is (``guarded``'s rule)? All in the robot frame, meters."""
+    """Can the robot drive straight from the origin to ``to`` (2,) keeping its centre as far
+    from every point of ``obstacles`` (k, 2) as ``clearance_kept`` allows (``guarded``'s
+    rule)? All in the robot frame, meters."""
     if len(obstacles) == 0:
         return True
     to = np.asarray(to, dtype=float)
     t = np.clip(obstacles @ to / max(float(to @ to), 1e-12), 0.0, 1.0)
     gap = np.linalg.norm(obstacles - t[:, None] * to, axis=1)
-    return bool(gap.min() >= min(radius + clearance, float(np.linalg.norm(obstacles, axis=1).min())))
+    return bool(np.all(gap >= clearance_kept(obstacles, radius, clearance)))
 
 
 class Navigator:

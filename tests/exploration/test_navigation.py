@@ -164,6 +164,22 @@ def test_guard_lets_the_robot_move_away_from_what_it_already_touches():
     assert guarded(0.5, 0.0, np.array([[-0.2, 0.0]]), 0.25, 0.0, 0.5, MAX_TURN) == (0.5, 0.0)
 
 
+def test_a_point_read_within_the_radius_does_not_let_the_disc_into_the_opposite_wall():
+    """Range noise reads a point of the right-hand wall 0.24 m away, within the radius; the
+    left-hand wall is 0.275 m away, its points exact. Turning left at 0.5 m/s and 0.5 rad/s
+    for the 0.5 s horizon moves the centre (v/w)(1 - cos(w t)) = 0.031 m to the left, to
+    0.244 m from that wall: the disc would overlap it. Whatever command the guard returns,
+    its arc keeps the centre at least the radius from the left wall, and moving away from
+    the point within the radius stays allowed."""
+    xs = np.linspace(-1.0, 1.0, 401)
+    left = np.column_stack([xs, np.full_like(xs, 0.275)])
+    obstacles = np.vstack([left, [[0.0, -0.24]]])
+    v, w = guarded(0.5, 0.5, obstacles, RADIUS, 0.02, 0.5, MAX_TURN)
+    t = np.linspace(0.0, 0.5, 50)
+    lateral = v / w * (1.0 - np.cos(w * t)) if w else np.zeros_like(t)
+    assert v > 0 and 0.275 - lateral.max() >= RADIUS
+
+
 def test_navigator_commands_are_guarded():
     nav = navigator(initial_spin=False)
     command = nav.command(HERE, ahead_plan(), T0, wall_at(0.45))
@@ -220,3 +236,38 @@ def test_a_guard_that_refuses_every_way_forward_for_a_full_turn_s_time_is_stuck(
     assert events == [None] * 8 + ["stuck", "stuck"]
     nav.new_goal()
     assert nav.command(HERE, ahead_plan(), T0 + 5.0, wall_at(0.3)).event is None
+
+
+# ---------------------------------------------------------------- a passage barely wider
+
+def passage_world() -> World:
+    """A 0.55 m wide, 1 m long passage (y 1.00-1.55 m, x 2.00-3.00 m, 5 cm cells) between two
+    rooms: 2.5 cm to spare on each side of a 0.25 m robot on its middle line (lab_e's doors)."""
+    grid = np.zeros((60, 100), dtype=bool)
+    grid[:20, 40:60] = True
+    grid[31:, 40:60] = True
+    return World(grid, (0.05, 0.05), name="passage")
+
+
+@pytest.mark.parametrize("seed, heading", [(0, 0.0), (1, 0.0), (2, 0.0), (3, 0.15), (4, -0.15)])
+def test_a_passage_with_centimetres_to_spare_is_driven_through_despite_range_noise(seed, heading):
+    """The robot on the passage's middle line stands 0.275 m from both walls, within the
+    guard's radius + clearance (0.27 m) only by what the 1 cm range noise takes off the nearest
+    of many hits. Driving on sweeps past hits the robot has not had beside it, the nearest of
+    which reads a centimetre or two nearer again (the minimum of more noisy readings): a guard
+    that lets no arc come nearer than the robot already stands refuses them all, scan after
+    scan, and the goal is abandoned at the passage. The passage is driven through, also from
+    a heading 0.15 rad off its axis, and no move touches a wall."""
+    world, lidar = passage_world(), Lidar(LidarConfig(), seed=seed)
+    nav = navigator(initial_spin=False)
+    start = gtsam.Pose2(1.5, 1.275, heading)
+    path = np.array([[1.5, 1.275], [3.5, 1.275], [4.0, 1.275]])
+    plan = Plan(path[-1], path, new_goal=True)
+    robot = Robot(world, start, RobotConfig(radius=RADIUS))
+    for k in range(60):
+        command = nav.command(robot.pose, plan, T0 + DT * k, lidar.scan(world, robot.pose).points())
+        assert command.event != "stuck", f"stuck at x = {robot.pose.x():.2f} m"
+        if command.event == "reached":
+            break
+        robot.move(command.v, command.w, DT)
+    assert command.event == "reached" and robot.collisions == 0
