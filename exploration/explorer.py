@@ -16,8 +16,9 @@ import gtsam
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 from scipy import ndimage
+from scipy.spatial import cKDTree
 
-from exploration.costmap import CostmapConfig, passable
+from exploration.costmap import CostmapConfig, driven, passable
 from exploration.follower import rest_of_path
 from exploration.frontier_methods import CFrontier, Frontier, GridFrontier, Reachable, evidence
 from exploration.goals import Blacklist, FrontierCluster, GoalConfig
@@ -131,7 +132,26 @@ class Explorer:
         frontier = self.method.frontier(snapshot)
         if self.goal is not None and self._goal_still_valid(frontier, reachable):
             return Plan(self.goal, reachable.path(self.goal), frontier=frontier.values)
-        return self._choose(frontier, reachable)
+        plan = self._choose(frontier, reachable)
+        if plan.done == "no_reachable_goal" and self._reopen(snapshot):
+            plan = self._choose(frontier, self._reachable(snapshot, pose))
+        return plan
+
+    def _reopen(self, snapshot: MapSnapshot) -> bool:
+        """Reopen the closed stretches on the robot's trail (within two cells of it), when no
+        frontier is reachable without them: the robot passed there, so a failure there was
+        its driving's, not the passage's (a robot in a room whose door it failed to leave by
+        was shut in). Those off the trail stay closed. True if any was reopened."""
+        if not len(self.closed) or snapshot.trail is None or len(snapshot.trail) < 2:
+            return False
+        cells, through = driven(snapshot.trail, snapshot.resolution, snapshot.origin, snapshot.prob.shape)
+        on = np.asarray(snapshot.origin, float) + snapshot.resolution * cells + through
+        gap = cKDTree(on).query(self.closed)[0]
+        keep = gap > 2 * snapshot.resolution
+        if keep.all():
+            return False
+        self.closed = self.closed[keep]
+        return True
 
     def _choose(self, frontier: Frontier, reachable: Reachable) -> Plan:
         """The best reachable cluster's goal; a goal where the robot already stands is a frontier

@@ -441,6 +441,31 @@ def test_a_passage_the_robot_could_not_pass_is_closed_not_retried():
     assert np.isfinite(after.distance_to(np.array([ROBOT.x(), ROBOT.y()])))
 
 
+def test_a_stretch_closed_on_the_robot_s_trail_is_reopened_when_nothing_else_is_reachable():
+    """The narrowed door of the test above now opens on a 1.2 m corridor seen to x = 12.5 m
+    (its walls' Λo unknown), and the room has no frontier of its own. Stuck on its way into the door,
+    the robot closes it: every frontier left lies past it. Had the robot come in through the
+    door (its trail), the failure was its driving's: the stretch is reopened and a goal past
+    the door chosen. Without the trail the door stays closed and no goal is reachable."""
+    narrowed = door_narrowed_to(3.77, 4.23)
+    prob = np.pad(narrowed.prob, ((0, 0), (0, 40)), constant_values=UNKNOWN)
+    occ = np.pad(narrowed.prob_occ, ((0, 0), (0, 40)), constant_values=UNKNOWN)
+    prob[DOOR[0] - 2:DOOR[1] + 2, 82:125] = WALL
+    prob[slice(*DOOR), 82:125], occ[slice(*DOOR), 82:125] = FREE, FREE_OCC
+    came_in = np.column_stack([np.linspace(9.5, ROBOT.x(), 61), np.full(61, ROBOT.y())])
+    for trail in (None, came_in):
+        snapshot = dataclasses.replace(narrowed, prob=prob, prob_occ=occ, trail=trail)
+        explorer = Explorer(ExplorerConfig())
+        first = explorer.plan(snapshot, ROBOT)
+        at = first.path[np.argmin(np.abs(first.path[:, 0] - 7.6))]
+        explorer.stuck(at, first.path)
+        then = explorer.plan(snapshot, gtsam.Pose2(*at, 0.0))
+        if trail is None:
+            assert then.goal is None and then.done == "no_reachable_goal" and len(explorer.closed)
+        else:
+            assert then.goal is not None and then.goal[0] > 8.1 and not len(explorer.closed)
+
+
 def test_the_look_stops_at_an_unseen_face_the_obstacle_gp_predicts():
     """The room's right wall was never hit over y 3.0-5.0 m (the evidence grid is unknown there,
     and so is the block behind it), but the obstacle GP, trained on the wall's hits either side,
