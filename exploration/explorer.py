@@ -20,7 +20,8 @@ from scipy.spatial import cKDTree
 
 from exploration.costmap import CostmapConfig, driven, passable
 from exploration.follower import rest_of_path
-from exploration.frontier_methods import CFrontier, Frontier, GridFrontier, Reachable, evidence
+from exploration.frontier_methods import (CFrontier, DoorFrontier, Frontier, GridFrontier, Reachable,
+                                          evidence)
 from exploration.goals import Blacklist, FrontierCluster, GoalConfig
 from exploration.paths import distance_field, near_distance
 from mapping.occupancy import MapSnapshot
@@ -93,6 +94,8 @@ class Explorer:
         self.config = config or ExplorerConfig()
         c = self.config
         self.method = CFrontier(c) if c.method == "gp" else GridFrontier(c)
+        self.doors = DoorFrontier(c, self.method.costmap)
+        self.source: CFrontier | GridFrontier = self.method  # what found the goal
         self.blacklist = Blacklist(c.goals.blacklist_radius)
         self.goal: np.ndarray | None = None
         self.target: np.ndarray = np.zeros((0, 2))  # the frontier points the goal serves
@@ -130,11 +133,13 @@ class Explorer:
         its frontier remains and its path is open, else choose the best frontier cluster."""
         reachable = self._reachable(snapshot, pose)
         frontier = self.method.frontier(snapshot)
-        if self.goal is not None and self._goal_still_valid(frontier, reachable):
-            return Plan(self.goal, reachable.path(self.goal), frontier=frontier.values)
-        plan = self._choose(frontier, reachable)
+        if self.goal is not None:
+            source = frontier if self.source is self.method else self.source.frontier(snapshot)
+            if self._goal_still_valid(source, reachable):
+                return Plan(self.goal, reachable.path(self.goal), frontier=frontier.values)
+        plan = self._choose(snapshot, frontier, reachable)
         if plan.done == "no_reachable_goal" and self._reopen(snapshot):
-            plan = self._choose(frontier, self._reachable(snapshot, pose))
+            plan = self._choose(snapshot, frontier, self._reachable(snapshot, pose))
         return plan
 
     def _reopen(self, snapshot: MapSnapshot) -> bool:
@@ -153,19 +158,24 @@ class Explorer:
         self.closed = self.closed[keep]
         return True
 
-    def _choose(self, frontier: Frontier, reachable: Reachable) -> Plan:
-        """The best reachable cluster's goal; a goal where the robot already stands is a frontier
-        it cannot see from anywhere reachable (e.g. behind a wall gap narrower than the robot):
-        blacklist it and choose again."""
+    def _choose(self, snapshot: MapSnapshot, frontier: Frontier, reachable: Reachable) -> Plan:
+        """The best reachable cluster's goal, or when the method has none, the door check's
+        (``DoorFrontier``); a goal where the robot already stands is a frontier it cannot see
+        from anywhere reachable (e.g. behind a wall gap narrower than the robot): blacklist it
+        and choose again."""
         self.goal = None
+        doors = None
         while True:
-            clusters = self.method.clusters(frontier, reachable, self.blacklist, self._rng)
-            if not clusters:
-                return Plan(None, done="frontiers_exhausted", frontier=frontier.values)
+            source, clusters = self.method, self.method.clusters(frontier, reachable, self.blacklist, self._rng)
             best = next((k for k in clusters if k.goal is not None), None)
             if best is None:
+                doors = self.doors.frontier(snapshot) if doors is None else doors
+                source, best = self.doors, next(iter(self.doors.clusters(doors, reachable, self.blacklist, self._rng)), None)
+            if best is None and not clusters:
+                return Plan(None, done="frontiers_exhausted", frontier=frontier.values)
+            if best is None:
                 return Plan(None, done="no_reachable_goal", clusters=clusters, frontier=frontier.values)
-            self.goal, self.target = best.goal, best.points
+            self.goal, self.target, self.source = best.goal, best.points, source
             if np.linalg.norm(self.goal - reachable.here) > self.config.min_goal_distance:
                 break
             self.give_up()

@@ -110,6 +110,19 @@ def best_cell_near(dist: np.ndarray, cell, radius: int) -> np.ndarray:
     return candidates[np.argmin(dist[candidates[:, 1], candidates[:, 0]])]
 
 
+def nearest_reachable_cell(dist: np.ndarray, cell, radius: int) -> np.ndarray | None:
+    """The cell (ix, iy) with a finite ``dist`` within ``radius`` cells of ``cell`` nearest to
+    it in a straight line, or None."""
+    h, w = dist.shape
+    _, offsets = _disc(radius)
+    candidates = np.asarray(cell) + offsets[np.argsort(np.hypot(*offsets.T), kind="stable")]
+    inside = ((candidates[:, 0] >= 0) & (candidates[:, 0] < w)
+              & (candidates[:, 1] >= 0) & (candidates[:, 1] < h))
+    candidates = candidates[inside]
+    finite = np.isfinite(dist[candidates[:, 1], candidates[:, 0]])
+    return candidates[np.argmax(finite)] if finite.any() else None
+
+
 class Approach:
     """Where to look at a frontier no reachable cell is near (a room's far side seen as a few
     beams through its door): the reachable cell nearest to it in a straight line that sees it

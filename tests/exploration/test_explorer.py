@@ -466,6 +466,19 @@ def test_a_stretch_closed_on_the_robot_s_trail_is_reopened_when_nothing_else_is_
             assert then.goal is not None and then.goal[0] > 8.1 and not len(explorer.closed)
 
 
+@pytest.mark.parametrize("method", ["gp", "grid"])
+def test_a_door_seen_edge_on_is_explored_by_both_methods(method):
+    """A 0.8 m door in the right wall seen one cell deep, as a robot driving past it sees it
+    through the edge of its field of view: 8 frontier cells, fewer than the C-frontier
+    method's 20 points and the grid method's 10-cell regions, with unknown space behind. It
+    is as long as the robot is wide and a look from before it shows more than ``min_gain``:
+    both methods send the robot to it rather than stop."""
+    snapshot = room([("right", 36, 44, 1)])
+    plan = Explorer(ExplorerConfig(method=method)).plan(snapshot, ROBOT)
+    assert plan.done is None and plan.goal is not None
+    assert 7.2 <= plan.goal[0] <= 8.2 and 3.6 <= plan.goal[1] <= 4.4
+
+
 def test_the_look_stops_at_an_unseen_face_the_obstacle_gp_predicts():
     """The room's right wall was never hit over y 3.0-5.0 m (the evidence grid is unknown there,
     and so is the block behind it), but the obstacle GP, trained on the wall's hits either side,
