@@ -590,7 +590,7 @@ def campaign(
     suite: Annotated[Optional[Path], typer.Option(
         exists=True, help="a floor-plan suite (its folder or manifest.csv): explore its maps, or "
         "those --worlds names, each run from a random start drawn from its seed in the largest "
-        "free region, at least 0.5 m from walls, with a step budget by the free area (22.5 scans "
+        "free region, at least 0.5 m from walls, with a step budget by the free area (60 scans "
         "per m², at least 6000; --max-steps caps it)")] = None,
     methods: Methods = ("gp", "grid"),
     seeds: Seeds = 10,

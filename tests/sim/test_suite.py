@@ -1,5 +1,7 @@
 """The suite benchmark's pieces: seeded random starts, the area-based step budget, the manifest."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -67,9 +69,13 @@ def test_a_world_with_no_clear_place_says_so():
 
 
 def test_the_budget_grows_with_the_area_above_todays_floor():
-    assert step_budget(0.0) == step_budget(190.0) == MIN_STEPS == 6000
-    assert step_budget(1000.0) == 22_500 and STEPS_PER_M2 == 22.5
-    assert step_budget(2850.0) == pytest.approx(2850.0 / 267.0 * 6000, rel=0.01)
+    """The floor is today's 6000 scans; above it the budget is proportional to the area, and
+    lab_e's 372 m², whose C-frontier run needed 13 100 scans to stop by itself, get 1.5x that
+    at least."""
+    assert step_budget(0.0) == step_budget(100.0) == MIN_STEPS == 6000
+    assert step_budget(2000.0) == pytest.approx(2 * step_budget(1000.0), abs=1)
+    assert step_budget(1000.0) == math.ceil(1000.0 * STEPS_PER_M2)
+    assert step_budget(372.0) >= 1.5 * 13_100
     with pytest.raises(ValueError):
         step_budget(float("nan"))
 
