@@ -170,7 +170,8 @@ class Explorer:
             best = next((k for k in clusters if k.goal is not None), None)
             if best is None:
                 doors = self.doors.frontier(snapshot) if doors is None else doors
-                source, best = self.doors, next(iter(self.doors.clusters(doors, reachable, self.blacklist, self._rng)), None)
+                source = self.doors
+                best = next(iter(self.doors.clusters(doors, reachable, self.blacklist, self._rng)), None)
             if best is None and not clusters:
                 return Plan(None, done="frontiers_exhausted", frontier=frontier.values)
             if best is None:
