@@ -479,6 +479,18 @@ def test_a_door_seen_edge_on_is_explored_by_both_methods(method):
     assert 7.2 <= plan.goal[0] <= 8.2 and 3.6 <= plan.goal[1] <= 4.4
 
 
+@pytest.mark.parametrize("method", ["gp", "grid"])
+def test_a_door_sized_gap_onto_space_seen_walls_enclose_is_a_block_s_inside(method):
+    """The same gap, but the unknown space behind it (2 m x 2.4 m) is enclosed by hits all
+    round, as the inside of a block whose face was grazed: the run ends."""
+    snapshot = room([("right", 36, 44, 1)])
+    outside = snapshot.prob == UNKNOWN
+    snapshot.prob[outside], snapshot.prob_occ[outside] = WALL, WALL
+    snapshot.prob[28:52, 83:93], snapshot.prob_occ[28:52, 83:93] = UNKNOWN, UNKNOWN
+    plan = Explorer(ExplorerConfig(method=method)).plan(snapshot, ROBOT)
+    assert plan.goal is None and plan.done == "frontiers_exhausted"
+
+
 def test_the_look_stops_at_an_unseen_face_the_obstacle_gp_predicts():
     """The room's right wall was never hit over y 3.0-5.0 m (the evidence grid is unknown there,
     and so is the block behind it), but the obstacle GP, trained on the wall's hits either side,
