@@ -199,9 +199,10 @@ class DoorFrontier(GridFrontier):
     the methods' business. And a region must open onto unknown space that reaches the map's
     edge: a wall seen at a grazing angle leaves gaps in its hits as long as a door, and the
     look through them counts the inside of the block behind, unknown space the block's seen
-    faces enclose; checking those drove the Stage cave's runs a third farther for nothing (GP
-    62 -> 83 m, grid 77 -> 96 m). A room behind a door seen edge-on is unknown up to its unseen
-    walls and beyond; one whose every wall was seen from outside is taken for a block."""
+    faces enclose; checking such gaps drove the Stage cave's runs farther for nothing (GP
+    62 -> 83 m without the length limit, grid 77 -> 96 m with it). A room behind a door seen
+    edge-on is unknown up to its unseen walls and beyond; one whose every wall was seen from
+    outside is taken for a block."""
 
     def min_cells(self, resolution: float) -> int:
         return max(1, math.floor(2 * self.config.robot_radius / resolution + 1e-9))
