@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 from scipy import ndimage
@@ -126,17 +126,9 @@ class CFrontier:
             return cluster if gain(cluster.centroid) >= c.min_gain else None
         if gain(cluster.goal) >= c.min_gain:
             return cluster
-        views = []
-        for point in spread(cluster.points, cluster.goal, VIEWS):
-            cell = best_cell_near(reachable.dist, reachable.cell(point), reachable.reach)
-            distance = float(reachable.dist[cell[1], cell[0]])
-            goal = reachable.origin + reachable.resolution * cell
-            if np.isfinite(distance) and gain(goal) >= c.min_gain:
-                views.append((distance, goal))
-        if not views:
-            return None
-        distance, goal = min(views, key=lambda v: v[0])
-        return cluster.served_from(goal, distance)
+        view = nearest_view(cluster.points, cluster.goal, reachable, best_cell_near,
+                            lambda goal: gain(goal) >= c.min_gain)
+        return None if view is None else cluster.served_from(view[1], view[0])
 
 
 class GridFrontier:
@@ -226,19 +218,14 @@ class DoorFrontier(GridFrontier):
         ``VIEWS`` of its points whose look shows ``min_gain`` (the nearest of those by path):
         a door through a thick wall is a tunnel, seen through from within it, not from the
         corridor beside it, where the path to the region is shortest."""
+        def shows(goal: np.ndarray) -> bool:
+            return look(frontier, reachable, goal, self.config, self.costmap) >= self.config.min_gain
+
         clusters = []
         for k in super().clusters(frontier, reachable, blacklist, rng):
-            views = []
-            for point in spread(k.points, k.centroid, VIEWS):
-                cell = nearest_reachable_cell(reachable.dist, reachable.cell(point), reachable.reach)
-                if cell is None:
-                    continue
-                goal = reachable.origin + reachable.resolution * cell
-                if look(frontier, reachable, goal, self.config, self.costmap) >= self.config.min_gain:
-                    views.append((float(reachable.dist[cell[1], cell[0]]), goal))
-            if views:
-                distance, goal = min(views, key=lambda v: v[0])
-                clusters.append(dataclasses.replace(k, goal=goal, distance=distance, utility=-distance))
+            view = nearest_view(k.points, k.centroid, reachable, nearest_reachable_cell, shows)
+            if view is not None:
+                clusters.append(dataclasses.replace(k, goal=view[1], distance=view[0], utility=-view[0]))
         return sorted(clusters, key=lambda k: -k.utility)
 
 
@@ -260,6 +247,23 @@ def look(frontier: Frontier, reachable: Reachable, at: np.ndarray, config: Explo
     out to the laser's range."""
     return visible_unknown_area(frontier.evidence, reachable.origin, reachable.resolution, at,
                                 config.sensor_range, costmap.occupied_above)
+
+
+def nearest_view(points: np.ndarray, first: np.ndarray, reachable: Reachable,
+                 cell_near: Callable[[np.ndarray, np.ndarray, int], np.ndarray | None],
+                 shows: Callable[[np.ndarray], bool]) -> tuple[float, np.ndarray] | None:
+    """(path length, goal in m) of the nearest by path of the goals by ``VIEWS`` of ``points``
+    (n, 2), spread from ``first`` (``spread``), that ``shows`` accepts; each goal is the cell
+    ``cell_near`` picks within reach of its point. None when no reachable one does."""
+    views = []
+    for point in spread(points, first, VIEWS):
+        cell = cell_near(reachable.dist, reachable.cell(point), reachable.reach)
+        if cell is None or not np.isfinite(reachable.dist[cell[1], cell[0]]):
+            continue
+        goal = reachable.origin + reachable.resolution * cell
+        if shows(goal):
+            views.append((float(reachable.dist[cell[1], cell[0]]), goal))
+    return min(views, key=lambda v: v[0]) if views else None
 
 
 def spread(points: np.ndarray, first: np.ndarray, k: int) -> np.ndarray:
