@@ -108,7 +108,7 @@ class ScanOdometry:
             if with_prior and prior is None:
                 continue
             other = self.registration.register(points, self._submap, start, prior if with_prior else None)
-            if self._explains_more(other, match, prior):
+            if self._explains_more(other, match, prior, len(points)):
                 match = other
         if match.inlier_fraction < c.retry_inlier_fraction:
             self.counts["correlative_searches"] += 1
@@ -123,15 +123,15 @@ class ScanOdometry:
             if found is not None:
                 fine = len(c.registration.voxel_sizes) - 1
                 other = self.registration.register(points, self._submap, found.pose, start_level=fine)
-                if self._explains_more(other, match, prior):
+                if self._explains_more(other, match, prior, len(points)):
                     self.counts["correlative_matches"] += 1
                     match = other
         return match
 
-    def _explains_more(self, other: Match, match: Match, prior) -> bool:
-        """Does ``other`` explain more of the scan than ``match``? A pose the wheels rule out
-        (beyond their χ²(3) gate at ``wheel_gate_probability``) must explain far more
-        (``explains_far_more``): a wheel slip leaves most of the scan unexplained."""
+    def _explains_more(self, other: Match, match: Match, prior, points: int) -> bool:
+        """Does ``other`` explain more of the scan, of ``points`` points, than ``match``? A pose
+        the wheels rule out (beyond their χ²(3) gate at ``wheel_gate_probability``) must explain
+        far more (``explains_far_more``): a wheel slip leaves most of the scan unexplained."""
         if other.inlier_fraction <= match.inlier_fraction + 0.02:
             return False
         if prior is None:
@@ -139,7 +139,7 @@ class ScanOdometry:
         error = prior[0].localCoordinates(other.pose)
         if error @ prior[1] @ error <= chi2.ppf(self.config.wheel_gate_probability, 3):
             return True
-        return explains_far_more(other, match)
+        return explains_far_more(other, match, points, self.config.registration.min_points)
 
     def _correlative_grid(self) -> CorrelativeGrid:
         if self._grid is None:

@@ -157,11 +157,15 @@ class Match:
         return np.linalg.inv(self.information + 1e-6 * np.eye(3))
 
 
-def explains_far_more(match: Match, other: Match) -> bool:
-    """Does ``match`` leave at most half as many of the scan's points unexplained as ``other``? A
-    match in another place than a plausible one must, to replace it: in a corridor or near a
-    wall a slid match can explain a few more points than the true one."""
-    return 1.0 - match.inlier_fraction <= 0.5 * (1.0 - other.inlier_fraction)
+def explains_far_more(match: Match, other: Match, points: int, min_points: int) -> bool:
+    """Does ``match`` leave at most half as many of the scan's ``points`` unexplained as
+    ``other``, and explain at least ``min_points`` (what a match at all must rest on) that
+    ``other`` does not? A match in another place than a plausible one must, to replace it: in a
+    corridor or near a wall a slid match can explain a few more points than the true one, and
+    a small scan a few more in proportion (office_a: 46 points of a wall 0.35 m ahead, 9 more of
+    them explained with the scan turned 93° onto another wall, turned the track by 93°)."""
+    gained = (match.inlier_fraction - other.inlier_fraction) * points
+    return 1.0 - match.inlier_fraction <= 0.5 * (1.0 - other.inlier_fraction) and gained >= min_points
 
 
 class Registration:

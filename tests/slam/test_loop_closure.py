@@ -172,12 +172,13 @@ def test_a_correlative_match_elsewhere_must_explain_far_more_than_the_local_one(
     # a poor guess sends the candidate to the correlative search; a corridor's aliases (office_f:
     # loops slid 0.9-1.7 m along it) explain a few more points than the true place, because
     # sliding the scan along brings more of it over the submap. A match in another place replaces
-    # the local one only by leaving at most half as many points unexplained; otherwise the
+    # the local one only by leaving at most half as many points unexplained, and by explaining
+    # at least min_points (20) of the 361 that the local one does not (30 here); otherwise the
     # candidate is ambiguous
     truth, graph, features, n = revisit(gtsam.Pose2(), keyframes=FACING_DOOR + 1)
     j, k = FACING_DOOR, n + FACING_DOOR
-    points, normals = features[k]           # 5 cm range noise: some of k's points are unexplained
-    features[k] = (points + np.random.default_rng(0).normal(0.0, 0.05, points.shape), normals)
+    points, normals = features[k]           # 7 cm range noise: some of k's points are unexplained
+    features[k] = (points + np.random.default_rng(0).normal(0.0, 0.07, points.shape), normals)
     predicted, _ = graph.relative(j, k)
     candidate = Candidate(j, k, predicted, np.diag([0.5, 0.5, 0.1]) ** 2, 1.0, 0.0)
     elsewhere = predicted.compose(gtsam.Pose2(1.0, 0.0, 0.0))
@@ -193,7 +194,7 @@ def test_a_correlative_match_elsewhere_must_explain_far_more_than_the_local_one(
         monkeypatch.setattr(detector, "_correlative", correlative)
         monkeypatch.setattr(detector, "_symmetric", lambda *args: True)
         loop = detector.verify(candidate, graph, features)
-        assert found and found[0].inlier_fraction < 0.99
+        assert found and 0.8 <= found[0].inlier_fraction < 0.9      # 36-72 points unexplained
         if accepted:
             assert loop is not None and loop.match.pose.equals(elsewhere, 1e-9)
         else:
