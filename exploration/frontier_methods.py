@@ -194,7 +194,13 @@ class DoorFrontier(GridFrontier):
     faces enclose; checking such gaps drove the Stage cave's runs farther for nothing (GP
     62 -> 83 m without the length limit, grid 77 -> 96 m with it). A room behind a door seen
     edge-on is unknown up to its unseen walls and beyond; one whose every wall was seen from
-    outside is taken for a block."""
+    outside is taken for a block.
+
+    That test stands in for Λo here: the look sees through the evidence grid, not
+    ``look_map``. Λo is high in the unknown cells behind a door seen edge-on, as the obstacle
+    GP joins the wall's hits on both sides of it, so the look from the door's own threshold
+    saw nothing past it (office_d: a 28 m² room behind a 1 m door showed 0.4 m² through
+    ``look_map``, 49 m² through the evidence)."""
 
     def min_cells(self, resolution: float) -> int:
         return max(1, math.floor(2 * self.config.robot_radius / resolution + 1e-9))
@@ -209,8 +215,7 @@ class DoorFrontier(GridFrontier):
         regions = tuple(r for r in found.regions if len(r) < self.config.min_frontier_cells
                         and beside[r[:, 1], r[:, 0]].any())
         cells = np.vstack(regions) if regions else np.zeros((0, 2), int)
-        return dataclasses.replace(found, cells=cells, regions=regions,
-                                   evidence=look_map(snapshot, self.costmap))
+        return dataclasses.replace(found, cells=cells, regions=regions, evidence=evidence(snapshot))
 
     def clusters(self, frontier: Frontier, reachable: Reachable, blacklist: Blacklist,
                  rng: np.random.Generator) -> list[FrontierCluster]:

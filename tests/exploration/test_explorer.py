@@ -480,6 +480,19 @@ def test_a_door_seen_edge_on_is_explored_by_both_methods(method):
 
 
 @pytest.mark.parametrize("method", ["gp", "grid"])
+def test_a_door_seen_edge_on_is_explored_where_the_obstacle_gp_joins_its_jambs(method):
+    """The same door, with Λo 0.9 in a 0.4 m band of unknown cells along the wall's outer
+    face and across the door, as the obstacle GP predicts where a wall's hits stand on both
+    sides of a gap (a look through ``look_map`` shows nothing past it): the door check looks
+    through the evidence, so the room behind still shows, and the robot goes to it."""
+    snapshot = room([("right", 36, 44, 1)])
+    snapshot.prob_occ[18:62, 82:86] = WALL
+    plan = Explorer(ExplorerConfig(method=method)).plan(snapshot, ROBOT)
+    assert plan.done is None and plan.goal is not None
+    assert 7.2 <= plan.goal[0] <= 8.2 and 3.6 <= plan.goal[1] <= 4.4
+
+
+@pytest.mark.parametrize("method", ["gp", "grid"])
 def test_a_door_sized_gap_onto_space_seen_walls_enclose_is_a_block_s_inside(method):
     """The same gap, but the unknown space behind it (2 m x 2.4 m) is enclosed by hits all
     round, as the inside of a block whose face was grazed: the run ends."""
