@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 from scipy import ndimage
-from scipy.spatial import cKDTree
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 
@@ -113,19 +113,19 @@ def _clear(free: np.ndarray, occupied: np.ndarray, resolution: float, radius: fl
         to_occupied[free] = np.inf
     if hits is None or not len(hits):
         return room & (to_occupied > clear), wall_cost(to_occupied, radius, config), offset
-    tree = cKDTree(hits)
     bound = max(config.preferred_clearance, clear + resolution)
     origin = np.asarray(origin, float)
-    iy, ix = np.nonzero(free)
-    to_occupied[iy, ix] = tree.query(origin + resolution * np.column_stack([ix, iy]),
-                                     distance_upper_bound=bound)[0]
+    hits = np.asarray(hits, float)
+    # past ``clear`` the clearance only sets the wall cost, flat when near_wall_cost is 0
+    to_occupied = np.where(free, distance_to_points(
+        hits, origin, resolution, free.shape, bound if config.near_wall_cost > 0 else clear), 0.0)
     ok = room & (to_occupied > clear)
     # cells whose centre is not clear, but a point of which may be (clearance is 1-Lipschitz),
     # where they could join two regions of centre-clear cells: searched for that point
     maybe = room & ~ok & (to_occupied > clear - config.squeeze - resolution / math.sqrt(2))
     iy, ix = np.nonzero(maybe & _links(ok, maybe))
-    shift, clearance = _clearest_points(tree, origin + resolution * np.column_stack([ix, iy]),
-                                        resolution, bound)
+    shift, clearance = clearest_points(hits, origin, resolution, free.shape, np.column_stack([ix, iy]),
+                                       bound)
     to_occupied[iy, ix], offset[iy, ix] = clearance, shift
     off_centre = np.zeros_like(ok)
     off_centre[iy, ix] = clearance > clear - config.squeeze
@@ -139,6 +139,36 @@ def _clear(free: np.ndarray, occupied: np.ndarray, resolution: float, radius: fl
 _EIGHT = np.ones((3, 3), dtype=bool)
 
 
+def distance_to_points(points: np.ndarray, origin, resolution: float, shape: tuple[int, int],
+                       bound: float) -> np.ndarray:
+    """(h, w) meters from each cell centre of the (h, w) ``shape`` grid (cell (0, 0)'s centre
+    at ``origin``) to the nearest of ``points`` (k, 2), inf where none is nearer than ``bound``:
+    each point writes its distance into the cells within ``bound`` of it, so the cost is the
+    points times the cells of that disc, whatever the map's size."""
+    d2 = np.full(shape, np.inf)
+    if len(points):
+        _scatter_distances(np.ascontiguousarray(points, dtype=float), float(origin[0]),
+                           float(origin[1]), float(resolution), float(bound), d2)
+    return np.sqrt(d2)
+
+
+@numba.njit(cache=True)
+def _scatter_distances(points, x0, y0, resolution, bound, d2):
+    h, w = d2.shape
+    reach = int(math.ceil(bound / resolution))
+    limit = bound * bound
+    for k in range(points.shape[0]):
+        px, py = points[k, 0], points[k, 1]
+        cx, cy = int(round((px - x0) / resolution)), int(round((py - y0) / resolution))
+        for iy in range(max(0, cy - reach), min(h, cy + reach + 1)):
+            dy = y0 + resolution * iy - py
+            for ix in range(max(0, cx - reach), min(w, cx + reach + 1)):
+                dx = x0 + resolution * ix - px
+                dd = dx * dx + dy * dy
+                if dd < limit and dd < d2[iy, ix]:
+                    d2[iy, ix] = dd
+
+
 def _links(rooms: np.ndarray, between: np.ndarray) -> np.ndarray:
     """(h, w) bool: the 8-connected groups of ``between`` cells that touch two or more
     8-connected groups of ``rooms`` cells: passages (a door whose clear span holds no cell
@@ -149,38 +179,96 @@ def _links(rooms: np.ndarray, between: np.ndarray) -> np.ndarray:
         return np.zeros_like(between)
     h, w = room.shape
     padded = np.pad(room, 1)
-    pairs = [np.column_stack([link[between], padded[1 + dy:h + 1 + dy, 1 + dx:w + 1 + dx][between]])
-             for dy in (-1, 0, 1) for dx in (-1, 0, 1)]
-    pairs = np.unique(np.vstack(pairs), axis=0)
-    pairs = pairs[pairs[:, 1] > 0]
-    touched = np.bincount(pairs[:, 0], minlength=n + 1)
+    rooms_n = int(room.max()) + 1
+    # each (link group, room group) pair beside one another, as one integer
+    pairs = np.unique(np.concatenate([
+        link[between].astype(np.int64) * rooms_n + padded[1 + dy:h + 1 + dy, 1 + dx:w + 1 + dx][between]
+        for dy in (-1, 0, 1) for dx in (-1, 0, 1)]))
+    pairs = pairs[pairs % rooms_n > 0]
+    touched = np.bincount(pairs // rooms_n, minlength=n + 1)
     return (touched >= 2)[link]
 
 
-#: 3 x 3 lattice of a pattern search, in units of its step.
-_LATTICE = np.array([(i, j) for j in (-1, 0, 1) for i in (-1, 0, 1)], dtype=float)
+def clearest_points(points: np.ndarray, origin, resolution: float, shape: tuple[int, int],
+                    cells: np.ndarray, bound: float, levels: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """Per cell (ix, iy) of ``cells`` (n, 2) on the (h, w) ``shape`` grid (cell (0, 0)'s centre
+    at ``origin``, side ``resolution``): the offset (n, 2) from its centre to its point
+    farthest from ``points`` (k, 2), and that distance (n,), inf where it is ``bound`` or more,
+    by a pattern search: the best of a 3 x 3 lattice round the best point so far, its step a
+    third of a cell and then a third of the last (0.4 mm on 0.1 m cells after 3 levels).
+    Within a passage, the distance to the walls rises towards its middle line, so the search
+    climbs to it.
+
+    The points are sorted into the grid's cells; a cell's search reads only those within its
+    centre's clearance plus a cell's diagonal of its centre, which hold the nearest point to
+    every point of the cell."""
+    cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
+    # buckets that can hold a point within bound + a diagonal of a cell's centre, either side
+    pad = int(math.ceil((bound + math.sqrt(2.0) * resolution) / resolution)) + 1
+    h, w = shape[0] + 2 * pad, shape[1] + 2 * pad
+    at = np.round((np.asarray(points, float) - origin) / resolution).astype(np.int64) + pad
+    inside = (at[:, 0] >= 0) & (at[:, 0] < w) & (at[:, 1] >= 0) & (at[:, 1] < h)
+    flat = at[inside, 1] * w + at[inside, 0]
+    order = np.argsort(flat, kind="stable")
+    starts = np.searchsorted(flat[order], np.arange(h * w + 1))
+    shift, clearance = np.zeros((len(cells), 2)), np.full(len(cells), np.inf)
+    _pattern_search(np.ascontiguousarray(np.asarray(points, float)[inside][order]), starts, w, pad,
+                    float(origin[0]), float(origin[1]), float(resolution), cells, float(bound),
+                    levels, shift, clearance)
+    return shift, clearance
 
 
-def _clearest_points(tree: cKDTree, centres: np.ndarray, resolution: float, bound: float,
-                     levels: int = 3) -> tuple[np.ndarray, np.ndarray]:
-    """Per cell of side ``resolution`` centred at ``centres`` (n, 2): the offset (n, 2) from
-    its centre to its point farthest from the points in ``tree``, and that distance (n,), by a
-    pattern search: the best of a 3 x 3 lattice round the best point so far, its step a third
-    of a cell and then a third of the last (0.4 mm on 0.1 m cells after 3 levels). Within a
-    passage, the distance to the walls rises towards its middle line, so the search climbs to
-    it."""
-    best = centres.copy()
-    clearance = tree.query(centres, distance_upper_bound=bound)[0] if len(centres) else np.zeros(0)
-    half, step, rows = resolution / 2, resolution / 3, np.arange(len(centres))
-    for _ in range(levels):
-        points = np.clip(best[:, None] + step * _LATTICE[None], centres[:, None] - half,
-                         centres[:, None] + half)
-        d = tree.query(points.reshape(-1, 2), distance_upper_bound=bound)[0].reshape(-1, 9)
-        k = np.argmax(d, axis=1)
-        better = d[rows, k] > clearance
-        best[better], clearance[better] = points[rows, k][better], d[rows, k][better]
-        step /= 3
-    return best - centres, clearance
+@numba.njit(cache=True)
+def _pattern_search(points, starts, w, pad, x0, y0, resolution, cells, bound, levels, shift,
+                    clearance):
+    diagonal = math.sqrt(2.0) * resolution
+    reach = pad
+    half = resolution / 2
+    for i in range(cells.shape[0]):
+        cx, cy = x0 + resolution * cells[i, 0], y0 + resolution * cells[i, 1]
+        bx, by = cells[i, 0] + pad, cells[i, 1] + pad
+        nearest = math.inf      # the centre's clearance: rings of buckets out from its own
+        for r in range(reach + 1):
+            if nearest <= (r - 0.5) * resolution:
+                break
+            for yy in range(by - r, by + r + 1):
+                step = 1 if yy == by - r or yy == by + r else 2 * r
+                for xx in range(bx - r, bx + r + 1, max(step, 1)):
+                    for k in range(starts[yy * w + xx], starts[yy * w + xx + 1]):
+                        nearest = min(nearest, math.sqrt((points[k, 0] - cx) ** 2
+                                                         + (points[k, 1] - cy) ** 2))
+        # the nearest point to any point of the cell lies within this of its centre
+        radius = min(nearest, bound) + diagonal
+        around = min(reach, int(math.ceil(radius / resolution + 0.5)))
+        count = 0
+        for yy in range(by - around, by + around + 1):
+            count += starts[yy * w + bx + around + 1] - starts[yy * w + bx - around]
+        near = np.empty((count, 2))
+        n = 0
+        for yy in range(by - around, by + around + 1):
+            for k in range(starts[yy * w + bx - around], starts[yy * w + bx + around + 1]):
+                if math.sqrt((points[k, 0] - cx) ** 2 + (points[k, 1] - cy) ** 2) <= radius:
+                    near[n] = points[k]
+                    n += 1
+        bestx, besty = cx, cy
+        best = nearest if nearest < bound else math.inf
+        step = resolution / 3
+        for _ in range(levels):
+            lx, ly, ld = bestx, besty, -1.0
+            for j in range(-1, 2):
+                for m in range(-1, 2):
+                    px = min(max(bestx + step * m, cx - half), cx + half)
+                    py = min(max(besty + step * j, cy - half), cy + half)
+                    d = math.inf
+                    for q in range(n):
+                        d = min(d, math.sqrt((near[q, 0] - px) ** 2 + (near[q, 1] - py) ** 2))
+                    d = d if d < bound else math.inf
+                    if d > ld:
+                        lx, ly, ld = px, py, d
+            if ld > best:
+                bestx, besty, best = lx, ly, ld
+            step /= 3
+        shift[i, 0], shift[i, 1], clearance[i] = bestx - cx, besty - cy, best
 
 
 def driven(trail: np.ndarray, resolution: float, origin, shape, max_step: float = 1.0):

@@ -9,6 +9,7 @@ the robot cannot reach is blacklisted, with a radius, rather than retried foreve
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -215,8 +216,12 @@ class Explorer:
         c, resolution = self.config, snapshot.resolution
         origin = np.asarray(snapshot.origin, float)
         h, w = snapshot.prob.shape
-        yy, xx = np.mgrid[0:h, 0:w]
-        disc = np.hypot(xx - start[0], yy - start[1]) * resolution <= c.robot_radius
+        r = int(math.ceil(c.robot_radius / resolution))
+        yy, xx = np.mgrid[start[1] - r:start[1] + r + 1, start[0] - r:start[0] + r + 1]
+        inside = ((np.hypot(xx - start[0], yy - start[1]) * resolution <= c.robot_radius)
+                  & (xx >= 0) & (xx < w) & (yy >= 0) & (yy < h))
+        disc = np.zeros((h, w), dtype=bool)
+        disc[yy[inside], xx[inside]] = True
         obstacles = snapshot.hits
         if obstacles is None:
             iy, ix = np.nonzero(evidence(snapshot) > self.method.costmap.occupied_above)

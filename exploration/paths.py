@@ -95,9 +95,23 @@ def _disc(radius: int) -> tuple[np.ndarray, np.ndarray]:
 
 def near_distance(dist: np.ndarray, radius: int) -> np.ndarray:
     """(h, w) the smallest ``dist`` within ``radius`` cells of each cell: the path length to
-    a place from which the robot is that close to the cell."""
+    a place from which the robot is that close to the cell. The disc is taken row by row, each
+    row's span a running minimum along x, so the cost does not grow with the disc's area."""
     disc, _ = _disc(radius)
-    return ndimage.minimum_filter(dist, footprint=disc, mode="constant", cval=np.inf)
+    h = dist.shape[0]
+    near = np.full(dist.shape, np.inf)
+    rows = {}       # half-width of a row of the disc -> dist's minimum over that row's span
+    for dy in range(-radius, radius + 1):
+        half = int(disc[dy + radius].sum()) // 2
+        if half not in rows:
+            rows[half] = ndimage.minimum_filter1d(dist, 2 * half + 1, axis=1, mode="constant",
+                                                  cval=np.inf)
+        span = rows[half]
+        if dy >= 0:
+            np.minimum(near[:h - dy], span[dy:], out=near[:h - dy])
+        else:
+            np.minimum(near[-dy:], span[:h + dy], out=near[-dy:])
+    return near
 
 
 def best_cell_near(dist: np.ndarray, cell, radius: int) -> np.ndarray:

@@ -38,6 +38,25 @@ def test_no_corner_cutting_and_unreachable_is_inf():
     assert np.isinf(dist[1, 1])
 
 
+@pytest.mark.parametrize("radius", [1, 3, 6])
+def test_near_distance_is_the_smallest_value_in_the_disc(radius):
+    """Against a brute-force minimum over the cells within ``radius`` of each cell, off the
+    map counting as unreachable, on random values with unreachable cells."""
+    rng = np.random.default_rng(radius)
+    dist = rng.uniform(0, 10, (17, 23))
+    dist[rng.random(dist.shape) < 0.7] = np.inf
+    h, w = dist.shape
+    brute = np.full(dist.shape, np.inf)
+    for iy in range(h):
+        for ix in range(w):
+            for dy in range(-radius, radius + 1):
+                for dx in range(-radius, radius + 1):
+                    y, x = iy + dy, ix + dx
+                    if dx * dx + dy * dy <= radius * radius and 0 <= y < h and 0 <= x < w:
+                        brute[iy, ix] = min(brute[iy, ix], dist[y, x])
+    assert np.array_equal(near_distance(dist, radius), brute)
+
+
 def test_near_distance_and_best_cell():
     passable = np.zeros((20, 20), dtype=bool)
     passable[10, :] = True
