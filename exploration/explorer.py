@@ -135,7 +135,8 @@ class Explorer:
         reachable = self._reachable(snapshot, pose)
         frontier = self.method.frontier(snapshot)
         if self.goal is not None:
-            source = frontier if self.source is self.method else self.source.frontier(snapshot)
+            source = (frontier if self.source is self.method
+                      else self.source.frontier(snapshot, any_length=True))
             if self._goal_still_valid(source, reachable):
                 return Plan(self.goal, reachable.path(self.goal), frontier=frontier.values)
         plan = self._choose(snapshot, frontier, reachable)

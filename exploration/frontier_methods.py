@@ -205,14 +205,18 @@ class DoorFrontier(GridFrontier):
     def min_cells(self, resolution: float) -> int:
         return max(1, math.floor(2 * self.config.robot_radius / resolution + 1e-9))
 
-    def frontier(self, snapshot: MapSnapshot) -> Frontier:
+    def frontier(self, snapshot: MapSnapshot, any_length: bool = False) -> Frontier:
+        """The door-sized regions; with ``any_length``, the longer ones too, to keep a goal by:
+        a door's region lengthens as the robot nears it and sees past (office_d: a 28 m² room
+        was left when its door's region grew from 8 cells as the robot came into the doorway)."""
         found = super().frontier(snapshot)
         free, occupied = classify(evidence(snapshot), self.costmap)
         labels, _ = ndimage.label(~free & ~occupied)
         edge = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
         outside = np.isin(labels, edge[edge > 0])
         beside = ndimage.binary_dilation(outside, ndimage.generate_binary_structure(2, 1))
-        regions = tuple(r for r in found.regions if len(r) < self.config.min_frontier_cells
+        regions = tuple(r for r in found.regions
+                        if (any_length or len(r) < self.config.min_frontier_cells)
                         and beside[r[:, 1], r[:, 0]].any())
         cells = np.vstack(regions) if regions else np.zeros((0, 2), int)
         return dataclasses.replace(found, cells=cells, regions=regions, evidence=evidence(snapshot))

@@ -493,6 +493,24 @@ def test_a_door_seen_edge_on_is_explored_where_the_obstacle_gp_joins_its_jambs(m
 
 
 @pytest.mark.parametrize("method", ["gp", "grid"])
+def test_a_door_s_goal_is_kept_while_its_frontier_lengthens(method):
+    """The door of the test above, Λo closing it: on the way to it, the robot sees a beam's
+    width past it (a 0.2 m strip of free cells running 1.2 m off at 45°), and the door's
+    frontier region grows to 32 cells, longer than a door. Its goal is kept: the robot still
+    goes to look into the room, rather than stop (the C-frontier method's look, through Λo,
+    shows nothing past the door) or turn to the strip's end."""
+    snapshot = room([("right", 36, 44, 1)])
+    snapshot.prob_occ[18:62, 82:86] = WALL
+    explorer = Explorer(ExplorerConfig(method=method))
+    first = explorer.plan(snapshot, ROBOT)
+    for k in range(12):
+        snapshot.prob[44 + k, 82 + k:84 + k], snapshot.prob_occ[44 + k, 82 + k:84 + k] = FREE, FREE_OCC
+    then = explorer.plan(snapshot, gtsam.Pose2(5.5, 4.0, 0.0))
+    assert 7.2 <= first.goal[0] <= 8.2 and 3.6 <= first.goal[1] <= 4.4
+    assert not then.new_goal and np.array_equal(then.goal, first.goal)
+
+
+@pytest.mark.parametrize("method", ["gp", "grid"])
 def test_a_door_sized_gap_onto_space_seen_walls_enclose_is_a_block_s_inside(method):
     """The same gap, but the unknown space behind it (2 m x 2.4 m) is enclosed by hits all
     round, as the inside of a block whose face was grazed: the run ends."""
