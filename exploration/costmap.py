@@ -222,24 +222,23 @@ def clearest_points(points: np.ndarray, origin, resolution: float, shape: tuple[
 def _pattern_search(points, starts, w, pad, x0, y0, resolution, cells, bound, levels, shift,
                     clearance):
     diagonal = math.sqrt(2.0) * resolution
-    reach = pad
     half = resolution / 2
     for i in range(cells.shape[0]):
         cx, cy = x0 + resolution * cells[i, 0], y0 + resolution * cells[i, 1]
         bx, by = cells[i, 0] + pad, cells[i, 1] + pad
         nearest = math.inf      # the centre's clearance: rings of buckets out from its own
-        for r in range(reach + 1):
+        for r in range(pad + 1):
             if nearest <= (r - 0.5) * resolution:
                 break
             for yy in range(by - r, by + r + 1):
-                step = 1 if yy == by - r or yy == by + r else 2 * r
-                for xx in range(bx - r, bx + r + 1, max(step, 1)):
+                stride = 1 if yy == by - r or yy == by + r else 2 * r   # a ring's rows, its sides
+                for xx in range(bx - r, bx + r + 1, stride):
                     for k in range(starts[yy * w + xx], starts[yy * w + xx + 1]):
                         nearest = min(nearest, math.sqrt((points[k, 0] - cx) ** 2
                                                          + (points[k, 1] - cy) ** 2))
         # the nearest point to any point of the cell lies within this of its centre
         radius = min(nearest, bound) + diagonal
-        around = min(reach, int(math.ceil(radius / resolution + 0.5)))
+        around = min(pad, int(math.ceil(radius / resolution + 0.5)))
         count = 0
         for yy in range(by - around, by + around + 1):
             count += starts[yy * w + bx + around + 1] - starts[yy * w + bx - around]
