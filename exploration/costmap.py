@@ -105,7 +105,7 @@ def _clear(free: np.ndarray, occupied: np.ndarray, resolution: float, radius: fl
     hits alone, without the trail."""
     offset = np.zeros(free.shape + (2,))
     clear = radius + config.margin
-    room = free & (_distance_to(~free & ~occupied, resolution) > config.unknown_clearance)
+    room = free & ~_within(~free & ~occupied, resolution, config.unknown_clearance)
     to_occupied = np.zeros(free.shape)
     if hits is None:
         to_occupied = _distance_to(occupied, resolution) - resolution / 2
@@ -210,7 +210,7 @@ def clearest_points(points: np.ndarray, origin, resolution: float, shape: tuple[
     inside = (at[:, 0] >= 0) & (at[:, 0] < w) & (at[:, 1] >= 0) & (at[:, 1] < h)
     flat = at[inside, 1] * w + at[inside, 0]
     order = np.argsort(flat, kind="stable")
-    starts = np.searchsorted(flat[order], np.arange(h * w + 1))
+    starts = np.concatenate([[0], np.cumsum(np.bincount(flat, minlength=h * w))])
     shift, clearance = np.zeros((len(cells), 2)), np.full(len(cells), np.inf)
     _pattern_search(np.ascontiguousarray(np.asarray(points, float)[inside][order]), starts, w, pad,
                     float(origin[0]), float(origin[1]), float(resolution), cells, float(bound),
@@ -306,6 +306,17 @@ def wall_cost(to_occupied: np.ndarray, radius: float, config: CostmapConfig) -> 
     closest = radius + config.margin
     span = max(config.preferred_clearance - closest, 1e-9)
     return 1.0 + config.near_wall_cost * np.clip((config.preferred_clearance - to_occupied) / span, 0, 1)
+
+
+def _within(mask: np.ndarray, resolution: float, distance: float) -> np.ndarray:
+    """(h, w) bool: cells whose centre lies within ``distance`` meters of the centre of a cell
+    of ``mask`` (off the map counts), ``_distance_to(mask) <= distance`` by a dilation with
+    that disc: a few cells, where the distance transform reads the whole map."""
+    r = int(math.floor(distance / resolution))
+    yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
+    disc = np.sqrt((yy * resolution) ** 2 + (xx * resolution) ** 2) <= distance
+    padded = np.pad(mask, 1, constant_values=True)
+    return ndimage.binary_dilation(padded, disc)[1:-1, 1:-1]
 
 
 def _distance_to(mask: np.ndarray, resolution: float) -> np.ndarray:

@@ -204,6 +204,8 @@ class Explorer:
     def _closed_cells(self, shape: tuple[int, int], origin: np.ndarray, resolution: float) -> np.ndarray:
         """(h, w) bool: the cells of the closed stretches (``stuck``) and the cells beside them."""
         closed = np.zeros(shape, dtype=bool)
+        if not len(self.closed):
+            return closed
         cells = np.round((self.closed - origin) / resolution).astype(int)
         inside = (cells[:, 0] >= 0) & (cells[:, 0] < shape[1]) & (cells[:, 1] >= 0) & (cells[:, 1] < shape[0])
         closed[cells[inside, 1], cells[inside, 0]] = True

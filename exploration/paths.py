@@ -153,12 +153,14 @@ class Approach:
                  min_path: float):
         self.dist, self.blocked, self.view, self.min_path = dist, blocked, view, min_path
         self.resolution = resolution
-        self._away, self._nearest = ndimage.distance_transform_edt(
-            ~np.isfinite(dist), sampling=resolution, return_indices=True)
+        self._away = self._nearest = None      # the field to the reachable cells, when asked
 
     def goal(self, cells: np.ndarray) -> np.ndarray | None:
         """The cell (ix, iy) from which to look at the frontier ``cells`` (k, 2) (ix, iy), or
         None when no such cell is within ``view``, sees it, and is not where the robot is."""
+        if self._away is None:
+            self._away, self._nearest = ndimage.distance_transform_edt(
+                ~np.isfinite(self.dist), sampling=self.resolution, return_indices=True)
         away = self._away[cells[:, 1], cells[:, 0]]
         for k in np.argsort(away, kind="stable")[:16]:
             if away[k] > self.view:

@@ -7,8 +7,8 @@ from pydantic import ValidationError
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from exploration.costmap import (CostmapConfig, classify, clearest_points, distance_to_points, driven,
-                                  passable)
+from exploration.costmap import (CostmapConfig, _within, classify, clearest_points, distance_to_points,
+                                  driven, passable)
 from exploration.explorer import Explorer, ExplorerConfig
 from exploration.grid_frontier import grid_frontiers
 from exploration.paths import distance_field, path_to
@@ -176,6 +176,18 @@ def test_clearest_points_climb_to_the_point_farthest_from_the_hits():
         assert found == pytest.approx(value, abs=1e-12)
     middle = clearance[[i for i, (ix, _) in enumerate(cells[:-2]) if ix == 20]]
     assert np.all(middle > 0.24)                                 # half the passage, less noise
+
+
+@pytest.mark.parametrize("resolution, distance", [(0.1, 0.0), (0.1, 0.1), (0.1, 0.25), (0.05, 0.3)])
+def test_within_is_the_distance_transform_thresholded(resolution, distance):
+    """Cells within ``distance`` of a mask cell (off the map counting as one), by dilation,
+    against scipy's Euclidean distance transform of the padded map."""
+    mask = np.random.default_rng(7).random((23, 31)) < 0.03
+    edt = ndimage.distance_transform_edt(np.pad(~mask, 1, constant_values=False),
+                                         sampling=resolution)[1:-1, 1:-1]
+    within = _within(mask, resolution, distance)
+    assert np.array_equal(within, edt <= distance)
+    assert (~within).any() and (within & ~mask).any() == (distance >= resolution)
 
 
 def test_bad_thresholds_are_rejected():

@@ -1,0 +1,127 @@
+"""Planning cost against map size: one replan on the whole known map of each building.
+
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_planner.py [--worlds stage_cave office_f office_g]
+        [--hits-per-cell 16] [--repeats 3]
+
+A replan (``Explorer.plan``) reads the whole map: the costmap's clearance to the hits, the
+Dijkstra field from the robot, the frontier map and the door check. Its cost grows with the map,
+and in the suite it ran every few scans, so it is what made a big building's cost per scan grow
+(office_h's GP run spent half its time there). Here each world's true map, read at 0.1 m cells,
+stands for a map the robot has finished: free where the robot's largest region and its walls
+lie, unknown elsewhere, ``--hits-per-cell`` laser endpoints (1 cm noise) in each wall cell that
+faces free space (office_d's run ended with 15 per such cell), from its seed-0 start.
+
+Prints, per world: cells, hits, the median replan time and its reachable-field part, and their
+ratios against the first world (the Stage cave by default); then the clearance to the hits
+computed by this planner (``costmap.distance_to_points``) against a k-d tree over the same hits
+queried at every free cell (what it replaced), on the largest map. Prints, never asserts.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import gtsam  # noqa: E402
+import numpy as np  # noqa: E402
+from scipy import ndimage  # noqa: E402
+from scipy.spatial import cKDTree  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from exploration.costmap import distance_to_points  # noqa: E402
+from exploration.explorer import Explorer, ExplorerConfig  # noqa: E402
+from mapping.occupancy import MapSnapshot  # noqa: E402
+from sim.campaign import suite_world_spec  # noqa: E402
+from sim.data import shared_data_dir  # noqa: E402
+from sim.suite import EXTRA_WORLDS, largest_region, sample_start, suite_maps  # noqa: E402
+
+RESOLUTION = 0.1
+
+
+def finished_map(name: str, data: Path, hits_per_cell: int, rng: np.random.Generator):
+    """(snapshot, start pose) of world ``name`` as a finished run's map would read it."""
+    radius = ExplorerConfig().robot_radius
+    if name in EXTRA_WORLDS:
+        spec, size = EXTRA_WORLDS[name]
+        spec = spec if size is None else str(data / spec)
+    else:
+        spec, size = str(suite_maps(data / "maps" / "suite", [name])[0]), None
+    world = suite_world_spec(spec, radius, size=size).load()
+    start = sample_start(world, radius, 0)
+    # the region's cells and the walls beside it, at 0.1 m cells
+    seen = ndimage.binary_dilation(largest_region(world, radius),
+                                   iterations=int(np.ceil(radius / min(world.resolution))) + 2)
+    h, w = (np.ceil(np.asarray(world.size)[::-1] / RESOLUTION)).astype(int)
+    yy, xx = np.mgrid[0:h, 0:w]
+    centres = world.origin + RESOLUTION * (np.stack([xx, yy], axis=-1) + 0.5)
+    cells = np.clip(((centres - world.origin) / world.resolution).astype(int), 0,
+                    np.array(world.shape[::-1]) - 1)
+    known = seen[cells[..., 1], cells[..., 0]]
+    wall = ndimage.maximum_filter(world.occupied.astype(np.uint8),
+                                  size=max(1, round(RESOLUTION / min(world.resolution))))
+    wall = wall[cells[..., 1], cells[..., 0]].astype(bool)
+    prob = np.where(known, np.where(wall, 0.9, 0.1), 0.5)
+    facing = known & wall & ndimage.binary_dilation(known & ~wall)
+    iy, ix = np.nonzero(facing)
+    corners = np.repeat(np.column_stack([ix, iy]), hits_per_cell, axis=0)
+    hits = (world.origin + RESOLUTION * (corners + rng.random(corners.shape))
+            + rng.normal(0.0, 0.01, corners.shape))
+    origin = np.asarray(world.origin, float) + 0.5 * RESOLUTION
+    occ = np.where(known, np.where(wall, 0.9, 0.3), 0.5)
+    return MapSnapshot(prob, occ, origin, RESOLUTION, hits=hits), start
+
+
+def median_ms(f, repeats: int) -> float:
+    f()                                                   # compiles, warms caches
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        f()
+        times.append(time.perf_counter() - t0)
+    return 1000.0 * float(np.median(times))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--worlds", nargs="+", default=["stage_cave", "office_f", "office_g"])
+    parser.add_argument("--hits-per-cell", type=int, default=16)
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+    data = shared_data_dir()
+    if data is None:
+        sys.exit("shared data not found (set GPEXPLORE_DATA)")
+    rng = np.random.default_rng(0)
+    rows = []
+    for name in args.worlds:
+        snapshot, start = finished_map(name, Path(data), args.hits_per_cell, rng)
+        explorer = Explorer(ExplorerConfig())
+        reach = median_ms(lambda: explorer._reachable(snapshot, start), args.repeats)
+        replan = median_ms(lambda: Explorer(ExplorerConfig()).plan(snapshot, start), args.repeats)
+        rows.append((name, snapshot, reach, replan))
+    base = rows[0]
+    print(f"{'world':>16} {'cells':>9} {'hits':>9} {'replan ms':>10} {'x':>6} {'field ms':>9} {'x':>6}")
+    for name, snapshot, reach, replan in rows:
+        print(f"{name:>16} {snapshot.prob.size:>9} {len(snapshot.hits):>9} {replan:>10.1f} "
+              f"{replan / base[3]:>6.2f} {reach:>9.1f} {reach / base[2]:>6.2f}")
+    name, snapshot, _, _ = max(rows, key=lambda r: r[1].prob.size)
+    free = snapshot.prob < 0.35
+    iy, ix = np.nonzero(free)
+    centres = snapshot.origin + RESOLUTION * np.column_stack([ix, iy])
+    ours = median_ms(lambda: distance_to_points(snapshot.hits, snapshot.origin, RESOLUTION,
+                                                free.shape, 0.27), args.repeats)
+    tree = median_ms(lambda: cKDTree(snapshot.hits).query(centres, distance_upper_bound=0.6),
+                     args.repeats)
+    print(f"clearance to the hits on {name} ({len(centres)} free cells): scattered {ours:.0f} ms, "
+          f"k-d tree {tree:.0f} ms ({tree / ours:.1f}x)")
+
+
+if __name__ == "__main__":
+    main()
