@@ -105,7 +105,7 @@ class CFrontier:
                             c.goals.reach)
         clusters = extract_goals(frontier.values, reachable.origin, reachable.resolution,
                                  reachable.dist, c.goals, blacklist, seed=int(rng.integers(2**31)),
-                                 approach=approach)
+                                 approach=approach, near=reachable.near)
         significant = [k for k in (self._significant(k, frontier, reachable) for k in clusters)
                        if k is not None]
         return sorted(significant, key=lambda k: -k.utility)

@@ -83,7 +83,8 @@ def utility(mean_value: float, size: int, total: int, distance: float, alpha: fl
 
 def extract_goals(frontier: np.ndarray, origin, resolution: float, dist: np.ndarray,
                   config: GoalConfig, blacklist: Blacklist | None = None,
-                  seed: int = 0, approach: Approach | None = None) -> list[FrontierCluster]:
+                  seed: int = 0, approach: Approach | None = None,
+                  near: np.ndarray | None = None) -> list[FrontierCluster]:
     """Frontier clusters, best first (eq. 11); empty when fewer than ``min_points`` points of F
     are above the threshold outside the blacklist.
 
@@ -98,6 +99,8 @@ def extract_goals(frontier: np.ndarray, origin, resolution: float, dist: np.ndar
         seed: for k-means.
         approach: where to look at a cluster no reachable cell is within reach of (else it
             has no goal).
+        near: ``paths.near_distance`` of ``dist`` over ``config.reach``, when the caller has
+            it (``Reachable.near``); else computed here.
     """
     iy, ix = np.nonzero(frontier > config.threshold)
     points = np.asarray(origin) + resolution * np.column_stack([ix, iy])
@@ -111,7 +114,7 @@ def extract_goals(frontier: np.ndarray, origin, resolution: float, dist: np.ndar
     labels = KMeans(n_clusters=k, n_init=1, random_state=seed).fit_predict(points)
     # path length to the best reachable cell within reach of each frontier point
     radius = max(1, round(config.reach / resolution))
-    near = near_distance(dist, radius)
+    near = near_distance(dist, radius) if near is None else near
     clusters = []
     for label in range(k):
         members = labels == label
