@@ -204,11 +204,7 @@ class Stack:
         snapshot = dataclasses.replace(self.map.snapshot(), trail=self.trail())
         if self.costmap is self.map:
             return snapshot
-        frame = self.map.frame
-        h, w = frame.shape
-        yy, xx = np.mgrid[0:h, 0:w]
-        centres = frame.origin + frame.resolution * np.stack([xx, yy], axis=-1)
-        traversable = self.costmap.frame.sample(self.costmap.prob(), centres)
+        traversable = self.costmap.frame.resampled(self.costmap.prob(), self.map.frame)
         return dataclasses.replace(snapshot, hits=self.costmap.hits(), traversable=traversable)
 
     def trail(self) -> np.ndarray:

@@ -98,6 +98,22 @@ class GridFrame:
         out[ok] = grid[c[:, 1] - self.iy0, c[:, 0] - self.ix0]
         return out
 
+    def resampled(self, grid: np.ndarray, frame: GridFrame, outside: float = 0.5) -> np.ndarray:
+        """(h, w) of ``frame``'s stored window: ``grid`` (this frame's) at the centre of each of
+        its cells, ``outside`` off this window (``sample`` at the cell centres). Frames of the
+        same resolution share their cells, so this is then a copy of the overlap."""
+        h, w = frame.shape
+        if frame.resolution != self.resolution:
+            yy, xx = np.mgrid[0:h, 0:w]
+            return self.sample(grid, frame.origin + frame.resolution * np.stack([xx, yy], axis=-1), outside)
+        out = np.full((h, w), outside, dtype=float)
+        dx, dy = frame.ix0 - self.ix0, frame.iy0 - self.iy0
+        x0, x1 = max(0, -dx), min(w, self.shape[1] - dx)
+        y0, y1 = max(0, -dy), min(h, self.shape[0] - dy)
+        if x0 < x1 and y0 < y1:
+            out[y0:y1, x0:x1] = grid[y0 + dy:y1 + dy, x0 + dx:x1 + dx]
+        return out
+
     def _bilinear(self, grid: np.ndarray, xy: np.ndarray, outside: float) -> np.ndarray:
         u = np.asarray(xy, float) / self.resolution - 0.5          # continuous cell coordinates
         c0 = np.floor(u).astype(np.int64)

@@ -1,0 +1,35 @@
+"""The growing grid's frame: reading one grid on another's cells."""
+
+import numpy as np
+import pytest
+
+from mapping.grid import GridFrame
+
+
+def frame(resolution, ix0, iy0, shape):
+    f = GridFrame(resolution)
+    f.ix0, f.iy0, f.shape = ix0, iy0, shape
+    return f
+
+
+@pytest.mark.parametrize("other", [
+    frame(0.1, -7, 4, (9, 12)),      # overlapping, shifted both ways
+    frame(0.1, 30, 30, (5, 5)),      # disjoint: all outside
+    frame(0.1, 2, 5, (3, 4)),        # inside
+    frame(0.05, -3, 9, (20, 30)),    # another resolution: read at its cell centres
+])
+def test_resampled_is_the_grid_read_at_the_other_frame_s_cell_centres(other):
+    """Cell (i, j) of ``other`` lies at its centre ((ix0 + j + 0.5)·r, (iy0 + i + 0.5)·r); the
+    value there is that of the grid's cell holding it, found here by brute force over the
+    grid's cells' edges, or 0.5 off the grid."""
+    grid = frame(0.1, -3, 2, (10, 14))
+    values = np.random.default_rng(0).random(grid.shape)
+    out = grid.resampled(values, other)
+    assert out.shape == other.shape
+    for i in range(other.shape[0]):
+        for j in range(other.shape[1]):
+            x = (other.ix0 + j + 0.5) * other.resolution
+            y = (other.iy0 + i + 0.5) * other.resolution
+            col = [c for c in range(grid.shape[1]) if (grid.ix0 + c) * 0.1 <= x < (grid.ix0 + c + 1) * 0.1]
+            row = [r for r in range(grid.shape[0]) if (grid.iy0 + r) * 0.1 <= y < (grid.iy0 + r + 1) * 0.1]
+            assert out[i, j] == (values[row[0], col[0]] if col and row else 0.5)
