@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -87,6 +88,10 @@ class World:
         """
         x, y = float(xy[0]), float(xy[1])
         (x0, y0), (rx, ry) = self.origin, self.resolution
+        cx, cy = int(np.floor((x - x0) / rx)), int(np.floor((y - y0) / ry))
+        h, w = self.shape
+        if 0 <= cx < w and 0 <= cy < h and self._centre_distance()[cy, cx] - math.hypot(rx, ry) >= radius:
+            return False      # every occupied cell is farther than that from any point of this cell
         ix = np.arange(int(np.floor((x - radius - x0) / rx)), int(np.floor((x + radius - x0) / rx)) + 1)
         iy = np.arange(int(np.floor((y - radius - y0) / ry)), int(np.floor((y + radius - y0) / ry)) + 1)
         gx, gy = np.meshgrid(ix, iy)
@@ -99,17 +104,25 @@ class World:
         gap = np.maximum(np.maximum(lo - (x, y), 0.0), (x, y) - (lo + self.resolution))
         return bool(np.any(np.einsum("ij,ij->i", gap, gap) < radius * radius))
 
+    def _centre_distance(self) -> np.ndarray:
+        """(h, w) meters from each cell centre to the nearest occupied cell's centre (the grid
+        border counts as a wall): a point of a cell lies within half a cell's diagonal of its
+        centre, and so does every point of an occupied cell of its own."""
+        if "centres" not in self._clearance:
+            padded = np.pad(~self.occupied, 1, constant_values=False)
+            rx, ry = self.resolution
+            self._clearance["centres"] = ndimage.distance_transform_edt(padded, sampling=(ry, rx))[1:-1, 1:-1]
+        return self._clearance["centres"]
+
     def clearance(self) -> np.ndarray:
         """(h, w) distance in meters from each cell centre to the nearest occupied cell's edge.
 
         The grid border counts as a wall. Occupied cells have clearance 0.
         """
         if "edt" not in self._clearance:
-            padded = np.pad(~self.occupied, 1, constant_values=False)
-            rx, ry = self.resolution
-            dist = ndimage.distance_transform_edt(padded, sampling=(ry, rx))[1:-1, 1:-1]
             # EDT measures centre to centre: the wall's near edge is half a cell closer.
-            self._clearance["edt"] = np.maximum(dist - 0.5 * min(rx, ry), 0.0) * ~self.occupied
+            half = 0.5 * min(self.resolution)
+            self._clearance["edt"] = np.maximum(self._centre_distance() - half, 0.0) * ~self.occupied
         return self._clearance["edt"]
 
     def clearance_at(self, xy: np.ndarray) -> np.ndarray:

@@ -68,3 +68,19 @@ def test_bad_grid_is_rejected():
         World(np.zeros((2, 2), dtype=bool), (0.0, 0.1))
     with pytest.raises(ValueError, match="2-D"):
         World(np.zeros(4, dtype=bool), (0.1, 0.1))
+
+
+def test_collides_is_the_exact_disc_test_wherever_the_shortcut_applies():
+    """Random points and radii on a cluttered 0.1 x 0.05 m grid: ``collides`` (which skips the
+    cell-by-cell test where the centre distance rules a contact out) against the disc tested
+    against every occupied cell rectangle and the border's, by brute force."""
+    rng = np.random.default_rng(3)
+    occupied = rng.random((30, 40)) < 0.05
+    world = World(occupied, (0.1, 0.05), origin=(-1.0, 2.0))
+    iy, ix = np.nonzero(np.pad(occupied, 1, constant_values=True))
+    lo = np.column_stack([(ix - 1) * 0.1 - 1.0, (iy - 1) * 0.05 + 2.0])
+    for _ in range(3000):
+        xy = rng.uniform([-1.0, 2.0], [3.0, 3.5])
+        radius = rng.uniform(0.01, 0.4)
+        gap = np.maximum(np.maximum(lo - xy, 0.0), xy - (lo + [0.1, 0.05]))
+        assert world.collides(xy, radius) == bool((np.sum(gap**2, axis=1) < radius**2).any())
