@@ -41,7 +41,7 @@ from exploration.explorer import Explorer, ExplorerConfig  # noqa: E402
 from mapping.occupancy import MapSnapshot  # noqa: E402
 from sim.campaign import suite_world_spec  # noqa: E402
 from sim.data import shared_data_dir  # noqa: E402
-from sim.suite import EXTRA_WORLDS, largest_region, sample_start, suite_maps  # noqa: E402
+from sim.suite import largest_region, sample_start, world_list  # noqa: E402
 
 RESOLUTION = 0.1
 
@@ -49,11 +49,7 @@ RESOLUTION = 0.1
 def finished_map(name: str, data: Path, hits_per_cell: int, rng: np.random.Generator):
     """(snapshot, start pose) of world ``name`` as a finished run's map would read it."""
     radius = ExplorerConfig().robot_radius
-    if name in EXTRA_WORLDS:
-        spec, size = EXTRA_WORLDS[name]
-        spec = spec if size is None else str(data / spec)
-    else:
-        spec, size = str(suite_maps(data / "maps" / "suite", [name])[0]), None
+    (spec, size), = world_list(data, data / "maps" / "suite", [name])
     world = suite_world_spec(spec, radius, size=size).load()
     start = sample_start(world, radius, 0)
     # the region's cells and the walls beside it, at 0.1 m cells

@@ -36,18 +36,9 @@ from sim.campaign import (check_resumable, plan, run_campaign, run_line, suite_w
 from sim.data import benchmark_data_dir  # noqa: E402
 from sim.engines import LocalEngine  # noqa: E402
 from sim.episode import EpisodeConfig  # noqa: E402
-from sim.suite import (EXTRA_WORLDS, outcome, rows_csv, rows_markdown, suite_maps, suite_rows,  # noqa: E402
-                       suite_summary, summary_line)
+from sim.suite import (EXTRA_WORLDS, outcome, rows_csv, rows_markdown, suite_rows,  # noqa: E402
+                       suite_summary, summary_line, world_list)
 from slam.atomic import write_text_atomic  # noqa: E402
-
-
-def world_list(data: Path, suite: Path, names: list[str] | None) -> list[tuple[str, tuple | None]]:
-    """(spec, size) of the chosen worlds: suite maps by name (``lab_a``), extras by their key."""
-    extras = {k: (v[0] if v[1] is None else str(data / v[0]), v[1]) for k, v in EXTRA_WORLDS.items()}
-    if names is None:
-        return [(str(p), None) for p in suite_maps(suite)] + list(extras.values())
-    chosen_maps = suite_maps(suite, [n for n in names if n not in extras])
-    return [(str(p), None) for p in chosen_maps] + [extras[n] for n in names if n in extras]
 
 
 def main() -> None:

@@ -124,6 +124,15 @@ def suite_maps(where: str | Path, names: list[str] | None = None) -> list[Path]:
     return list(rows.values())
 
 
+def world_list(data: Path, suite: Path, names: list[str] | None) -> list[tuple[str, tuple | None]]:
+    """(spec, size) of the chosen worlds: suite maps by name (``lab_a``), extras by their key."""
+    extras = {k: (v[0] if v[1] is None else str(data / v[0]), v[1]) for k, v in EXTRA_WORLDS.items()}
+    if names is None:
+        return [(str(p), None) for p in suite_maps(suite)] + list(extras.values())
+    chosen_maps = suite_maps(suite, [n for n in names if n not in extras])
+    return [(str(p), None) for p in chosen_maps] + [extras[n] for n in names if n in extras]
+
+
 # --- scoring a suite campaign -----------------------------------------------------------------
 
 #: A run succeeds when it ends by itself (no crash, no step-budget stop, no ``stop_failed``)

@@ -8,7 +8,8 @@ import pytest
 from sim.campaign import WorldSpec, plan
 from sim.data import shared_data_dir
 from sim.episode import EpisodeConfig
-from sim.suite import MIN_STEPS, STEPS_PER_M2, free_area_m2, sample_start, step_budget, suite_maps
+from sim.suite import (MIN_STEPS, STEPS_PER_M2, free_area_m2, sample_start, step_budget, suite_maps,
+                       world_list)
 from sim.world import World
 
 RADIUS = 0.25
@@ -114,6 +115,19 @@ def test_the_suite_manifest_lists_its_maps():
                                                                             folder / "lab_c.yaml"]
     with pytest.raises(ValueError, match="no map called lab_z"):
         suite_maps(folder, ["lab_z"])
+
+
+@pytest.mark.skipif(shared_data_dir() is None, reason="shared data not found")
+def test_world_list_names_suite_maps_and_the_extras_with_their_sizes():
+    """Suite maps by name, then the extras: a built-in world by its name, a Stage bitmap by its
+    path in the shared data with the size it is read at."""
+    data = shared_data_dir()
+    folder = data / "maps" / "suite"
+    assert world_list(data, folder, ["stage_cave", "lab_c", "cave"]) == [
+        (str(folder / "lab_c.yaml"), None), (str(data / "maps" / "cave.png"), (20.0, 20.0)), ("cave", None)]
+    assert len(world_list(data, folder, None)) == 16 + 4
+    with pytest.raises(ValueError, match="no map called lab_z"):
+        world_list(data, folder, ["lab_z"])
 
 
 @pytest.mark.skipif(shared_data_dir() is None, reason="shared data not found")
