@@ -112,18 +112,19 @@ class CFrontier:
 
     def _significant(self, cluster: FrontierCluster, frontier: Frontier,
                      reachable: Reachable) -> FrontierCluster | None:
-        """The cluster when a look round from its goal (from its centroid when it has none)
-        shows ``min_gain``; else, served from the nearest goal by another of its points that
+        """The cluster when a look round from its goal shows ``min_gain`` (when it has none,
+        from its centroid, where the robot does not stand: a point of frontier, often on a
+        wall, so all the unknown its rays cross counts); else, served from the nearest goal by another of its points that
         does (k-means can join a remnant beside the robot with a corridor's end across the
         building: the goal by the nearest point sees only the remnant), tried at ``VIEWS``
         points spread over the cluster; else None."""
         c = self.config
 
-        def gain(at: np.ndarray) -> float:
-            return look(frontier, reachable, at, c, self.costmap)
+        def gain(at: np.ndarray, standing: bool = True) -> float:
+            return look(frontier, reachable, at, c, self.costmap, standing)
 
         if cluster.goal is None:
-            return cluster if gain(cluster.centroid) >= c.min_gain else None
+            return cluster if gain(cluster.centroid, standing=False) >= c.min_gain else None
         if gain(cluster.goal) >= c.min_gain:
             return cluster
         view = nearest_view(cluster.points, cluster.goal, reachable, best_cell_near,
@@ -253,11 +254,14 @@ def look_map(snapshot: MapSnapshot, costmap: CostmapConfig) -> np.ndarray:
 
 
 def look(frontier: Frontier, reachable: Reachable, at: np.ndarray, config: ExplorerConfig,
-         costmap: CostmapConfig) -> float:
+         costmap: CostmapConfig, standing: bool = True) -> float:
     """m² of unknown space a look round from ``at`` (2,) would show on ``frontier.evidence``,
-    out to the laser's range."""
+    out to the laser's range; ``standing`` (the robot stands at ``at``): counting only where
+    it could drive from there (farther than its radius from what is occupied:
+    ``gain.visible_unknown_area``), else all the unknown the rays cross."""
     return visible_unknown_area(frontier.evidence, reachable.origin, reachable.resolution, at,
-                                config.sensor_range, costmap.occupied_above)
+                                config.sensor_range, costmap.occupied_above,
+                                config.robot_radius if standing else 0.0)
 
 
 def nearest_view(points: np.ndarray, first: np.ndarray, reachable: Reachable,

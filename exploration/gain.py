@@ -1,7 +1,14 @@
 """What a goal would show: the unknown area a 360-degree look from it would see, ray-cast on the
 map the planner reads. The stop test drops frontier clusters that would show less than the
 sensitivity asked for, so that a run ends when nothing worth a trip is left instead of driving
-to remnants (a few unknown cells in a corner, a speck behind furniture)."""
+to remnants (a few unknown cells in a corner, a speck behind furniture).
+
+Only unknown cells the robot could drive to from the goal count: those farther than its radius
+from every occupied cell, joined to the goal through such cells. Coverage counts that space, the
+free space the robot can reach; the rest of the unknown adds nothing to it. The strip along a
+wall seen at a grazing angle and the corner of a room hold no place for the robot's centre,
+and the inside of a block seen through a gap in its seen faces narrower than the robot is
+no place it can reach; a room or a corridor behind a door is."""
 
 from __future__ import annotations
 
@@ -14,16 +21,21 @@ from mapping.metrics import KNOWN
 
 
 def visible_unknown_area(prob: np.ndarray, origin, resolution: float, at, sensor_range: float,
-                         occupied_above: float, rays: int = 360) -> float:
+                         occupied_above: float, clear_of: float = 0.0, rays: int = 360) -> float:
     """Area (m²) of the unknown cells (``|prob - 0.5| <= KNOWN``, and every cell off the map)
     that ``rays`` rays from ``at`` (2,) (m) cross before an occupied cell (``prob`` above
-    ``occupied_above``) or ``sensor_range`` meters, each ray sampled every half cell.
-    ``prob`` (h, w) has cell (0, 0)'s centre at ``origin`` (2,), meters."""
+    ``occupied_above``) or ``sensor_range`` meters, each ray sampled every half cell, and that
+    a disc of radius ``clear_of`` (m) centred at ``at`` could move to: cells farther than
+    ``clear_of`` from every occupied cell (centre to centre), joined to the cell of ``at``
+    through such cells by steps to the 4 neighbours. ``prob`` (h, w) has cell (0, 0)'s centre
+    at ``origin`` (2,), meters."""
     half = int(math.ceil(sensor_range / resolution)) + 1          # cells: the window's half side
     start = (np.asarray(at, float) - np.asarray(origin, float)) / resolution
-    seen = np.zeros((2 * half + 1, 2 * half + 1), dtype=np.bool_)
-    _cast(np.ascontiguousarray(prob, dtype=np.float64), start[0], start[1],
-          sensor_range / resolution, occupied_above, KNOWN, rays, half, seen)
+    prob = np.ascontiguousarray(prob, dtype=np.float64)
+    room = np.zeros((2 * half + 1, 2 * half + 1), dtype=np.bool_)
+    _room(prob, int(round(start[0])), int(round(start[1])), clear_of / resolution, occupied_above, half, room)
+    seen = np.zeros_like(room)
+    _cast(prob, start[0], start[1], sensor_range / resolution, occupied_above, KNOWN, rays, half, room, seen)
     return float(seen.sum() * resolution**2)
 
 
@@ -34,11 +46,44 @@ def _occupied(prob, ix, iy, occupied_above):
 
 
 @numba.njit(cache=True)
-def _cast(prob, x, y, reach, occupied_above, known, rays, half, seen):
+def _clear(prob, ix, iy, clear_of, occupied_above):
+    """No occupied cell within ``clear_of`` cells (centre to centre) of cell (``ix``, ``iy``)."""
+    r = int(clear_of)
+    for dy in range(-r, r + 1):
+        for dx in range(-r, r + 1):
+            if dx * dx + dy * dy <= clear_of * clear_of and _occupied(prob, ix + dx, iy + dy, occupied_above):
+                return False
+    return True
+
+
+@numba.njit(cache=True)
+def _room(prob, cx, cy, clear_of, occupied_above, half, room):
+    """Mark in ``room`` (a window of ``half`` cells about cell (``cx``, ``cy``)) the cells
+    ``_clear`` of occupied cells by ``clear_of`` cells that are joined to (``cx``, ``cy``)
+    through such cells by 4-neighbour steps (a breadth-first fill; the start is in)."""
+    side = 2 * half + 1
+    queue = np.empty((side * side, 2), dtype=np.int64)
+    room[half, half] = True
+    queue[0, 0], queue[0, 1] = half, half
+    head, tail = 0, 1
+    while head < tail:
+        u, v = queue[head, 0], queue[head, 1]
+        head += 1
+        for du, dv in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+            a, b = u + du, v + dv
+            if (0 <= a < side and 0 <= b < side and not room[b, a]
+                    and _clear(prob, cx + a - half, cy + b - half, clear_of, occupied_above)):
+                room[b, a] = True
+                queue[tail, 0], queue[tail, 1] = a, b
+                tail += 1
+
+
+@numba.njit(cache=True)
+def _cast(prob, x, y, reach, occupied_above, known, rays, half, room, seen):
     """Mark in ``seen`` (a window of ``half`` cells about the start's cell) the unknown cells
-    the rays from (``x``, ``y``) (cells) cross, each until its first occupied cell, a step
-    between two occupied cells that touch at a corner (a diagonal wall has no gap), or
-    ``reach`` cells."""
+    in ``room`` (the same window) that the rays from (``x``, ``y``) (cells) cross, each until
+    its first occupied cell, a step between two occupied cells that touch at a corner (a
+    diagonal wall has no gap), or ``reach`` cells."""
     h, w = prob.shape
     cx, cy = int(round(x)), int(round(y))
     steps = int(reach * 2.0 + 1.0)
@@ -54,5 +99,5 @@ def _cast(prob, x, y, reach, occupied_above, known, rays, half, seen):
                                           and _occupied(prob, px, iy, occupied_above)):
                 break
             px, py = ix, iy
-            if abs(value - 0.5) <= known:
+            if abs(value - 0.5) <= known and room[iy - cy + half, ix - cx + half]:
                 seen[iy - cy + half, ix - cx + half] = True

@@ -56,3 +56,33 @@ def test_a_diagonal_wall_has_no_gap():
     assert visible_unknown_area(prob, (0.0, 0.0), RES, (4.0, 4.0), 8.0, 0.65) == 0.0
     tile[np.arange(0, 20, 2), np.arange(0, 20, 2)] = 0.5
     assert visible_unknown_area(prob, (0.0, 0.0), RES, (4.0, 4.0), 8.0, 0.65) > 0.5
+
+
+def test_unknown_along_a_wall_the_robot_cannot_stand_in_shows_nothing():
+    """Three rows of unknown along the room's bottom wall (row 9, y = 0.9 m), at 0.1, 0.2 and
+    0.3 m from it: a disc of radius 0.25 m centred in the first two would overlap the wall, so
+    only the third row counts, its 40 cells (cols 20-59, far from the side walls) 0.4 m²; with
+    no radius all 120 cells, 1.2 m²."""
+    prob = closed_room((slice(10, 13), slice(20, 60)))
+    assert visible_unknown_area(prob, (0.0, 0.0), RES, (4.0, 4.0), 8.0, 0.65) == pytest.approx(1.2, abs=1e-9)
+    assert visible_unknown_area(prob, (0.0, 0.0), RES, (4.0, 4.0), 8.0, 0.65, 0.25) == pytest.approx(0.4, abs=1e-9)
+
+
+@pytest.mark.parametrize("gap, passes", [(4, False), (5, True)])
+def test_unknown_behind_a_gap_narrower_than_the_robot_shows_nothing(gap, passes):
+    """A wall across the room at row 40 (y = 4.0 m) with the room's top half unknown behind it,
+    and a gap of ``gap`` cells in it. Rays from (4.0, 2.0) m see through either gap. A disc of
+    radius 0.25 m passes between wall cells whose centres are more than 0.5 m apart: not
+    through a 4-cell gap (jambs 0.5 m apart), through a 5-cell one (0.6 m), and then it reaches
+    the whole top half (29 rows of 60 cells, 17.4 m²), of which rays show some square meters."""
+    prob = closed_room()
+    prob[41:70, 10:70] = 0.5
+    prob[40, 10:70] = 0.9
+    prob[40, 38:38 + gap] = 0.1
+    unbounded = visible_unknown_area(prob, (0.0, 0.0), RES, (4.0, 2.0), 8.0, 0.65)
+    area = visible_unknown_area(prob, (0.0, 0.0), RES, (4.0, 2.0), 8.0, 0.65, 0.25)
+    assert unbounded > 1.0
+    if passes:
+        assert 1.0 < area <= unbounded <= 17.4
+    else:
+        assert area == 0.0
