@@ -257,11 +257,14 @@ def look(frontier: Frontier, reachable: Reachable, at: np.ndarray, config: Explo
          costmap: CostmapConfig, standing: bool = True) -> float:
     """m² of unknown space a look round from ``at`` (2,) would show on ``frontier.evidence``,
     out to the laser's range; ``standing`` (the robot stands at ``at``): counting only where
-    it could drive from there (farther than its radius from what is occupied:
-    ``gain.visible_unknown_area``), else all the unknown the rays cross."""
+    it could drive from there (farther than its radius from the obstacles seen,
+    ``frontier.blocked``: ``gain.visible_unknown_area``), else all the unknown the rays cross.
+    The rays stop at obstacles Λo predicts too, but passages are judged by what was seen: Λo
+    spreads a door's jambs into the unknown beyond it, and narrowed office_d's 1 m doors to
+    less than the robot."""
     return visible_unknown_area(frontier.evidence, reachable.origin, reachable.resolution, at,
                                 config.sensor_range, costmap.occupied_above,
-                                config.robot_radius if standing else 0.0)
+                                config.robot_radius if standing else 0.0, frontier.blocked)
 
 
 def nearest_view(points: np.ndarray, first: np.ndarray, reachable: Reachable,

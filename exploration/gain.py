@@ -21,19 +21,21 @@ from mapping.metrics import KNOWN
 
 
 def visible_unknown_area(prob: np.ndarray, origin, resolution: float, at, sensor_range: float,
-                         occupied_above: float, clear_of: float = 0.0, rays: int = 360) -> float:
+                         occupied_above: float, clear_of: float = 0.0, walls: np.ndarray | None = None,
+                         rays: int = 360) -> float:
     """Area (m²) of the unknown cells (``|prob - 0.5| <= KNOWN``, and every cell off the map)
     that ``rays`` rays from ``at`` (2,) (m) cross before an occupied cell (``prob`` above
     ``occupied_above``) or ``sensor_range`` meters, each ray sampled every half cell, and that
     a disc of radius ``clear_of`` (m) centred at ``at`` could move to: cells farther than
-    ``clear_of`` from every occupied cell (centre to centre), joined to the cell of ``at``
-    through such cells by steps to the 4 neighbours. ``prob`` (h, w) has cell (0, 0)'s centre
-    at ``origin`` (2,), meters."""
+    ``clear_of`` from every cell of ``walls`` (h, w) bool (centre to centre; by default the
+    occupied cells), joined to the cell of ``at`` through such cells by steps to the 4
+    neighbours. ``prob`` (h, w) has cell (0, 0)'s centre at ``origin`` (2,), meters."""
     half = int(math.ceil(sensor_range / resolution)) + 1          # cells: the window's half side
     start = (np.asarray(at, float) - np.asarray(origin, float)) / resolution
     prob = np.ascontiguousarray(prob, dtype=np.float64)
+    walls = prob > occupied_above if walls is None else np.ascontiguousarray(walls, dtype=np.bool_)
     room = np.zeros((2 * half + 1, 2 * half + 1), dtype=np.bool_)
-    _room(prob, int(round(start[0])), int(round(start[1])), clear_of / resolution, occupied_above, half, room)
+    _room(walls, int(round(start[0])), int(round(start[1])), clear_of / resolution, half, room)
     seen = np.zeros_like(room)
     _cast(prob, start[0], start[1], sensor_range / resolution, occupied_above, KNOWN, rays, half, room, seen)
     return float(seen.sum() * resolution**2)
@@ -46,21 +48,23 @@ def _occupied(prob, ix, iy, occupied_above):
 
 
 @numba.njit(cache=True)
-def _clear(prob, ix, iy, clear_of, occupied_above):
-    """No occupied cell within ``clear_of`` cells (centre to centre) of cell (``ix``, ``iy``)."""
+def _clear(walls, ix, iy, clear_of):
+    """No cell of ``walls`` within ``clear_of`` cells (centre to centre) of cell (``ix``, ``iy``)."""
+    h, w = walls.shape
     r = int(clear_of)
     for dy in range(-r, r + 1):
         for dx in range(-r, r + 1):
-            if dx * dx + dy * dy <= clear_of * clear_of and _occupied(prob, ix + dx, iy + dy, occupied_above):
+            jx, jy = ix + dx, iy + dy
+            if dx * dx + dy * dy <= clear_of * clear_of and 0 <= jx < w and 0 <= jy < h and walls[jy, jx]:
                 return False
     return True
 
 
 @numba.njit(cache=True)
-def _room(prob, cx, cy, clear_of, occupied_above, half, room):
+def _room(walls, cx, cy, clear_of, half, room):
     """Mark in ``room`` (a window of ``half`` cells about cell (``cx``, ``cy``)) the cells
-    ``_clear`` of occupied cells by ``clear_of`` cells that are joined to (``cx``, ``cy``)
-    through such cells by 4-neighbour steps (a breadth-first fill; the start is in)."""
+    ``_clear`` of ``walls`` by ``clear_of`` cells that are joined to (``cx``, ``cy``) through
+    such cells by 4-neighbour steps (a breadth-first fill; the start is in)."""
     side = 2 * half + 1
     queue = np.empty((side * side, 2), dtype=np.int64)
     room[half, half] = True
@@ -72,7 +76,7 @@ def _room(prob, cx, cy, clear_of, occupied_above, half, room):
         for du, dv in ((1, 0), (-1, 0), (0, 1), (0, -1)):
             a, b = u + du, v + dv
             if (0 <= a < side and 0 <= b < side and not room[b, a]
-                    and _clear(prob, cx + a - half, cy + b - half, clear_of, occupied_above)):
+                    and _clear(walls, cx + a - half, cy + b - half, clear_of)):
                 room[b, a] = True
                 queue[tail, 0], queue[tail, 1] = a, b
                 tail += 1
