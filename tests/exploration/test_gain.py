@@ -86,3 +86,20 @@ def test_unknown_behind_a_gap_narrower_than_the_robot_shows_nothing(gap, passes)
         assert 1.0 < area <= unbounded <= 17.4
     else:
         assert area == 0.0
+
+
+def test_a_door_is_judged_by_the_walls_seen_not_by_the_obstacles_predicted_past_it():
+    """A 0.8 m door (cols 36-43) in the wall across the room, the top half unknown behind it,
+    and the look's map also occupied in the unknown cells just past the door's jambs (row 41,
+    two cells each side), as the obstacle GP spreads them: the door reads 0.4 m wide there,
+    narrower than the robot. Rays still pass the 0.4 m; the passage is judged by the walls seen,
+    between which a disc of 0.25 m passes, so the unknown past the door counts."""
+    seen = closed_room()
+    seen[41:70, 10:70] = 0.5
+    seen[40, 10:70] = 0.9
+    seen[40, 36:44] = 0.1
+    predicted = seen.copy()
+    predicted[41, [36, 37, 42, 43]] = 0.9
+    look = lambda walls: visible_unknown_area(predicted, (0.0, 0.0), RES, (4.0, 2.0), 8.0, 0.65, 0.25, walls)
+    assert look(None) == 0.0
+    assert look(seen > 0.65) > 1.0
