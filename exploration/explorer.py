@@ -51,10 +51,8 @@ class ExplorerConfig(BaseModel):
     min_gain: float = Field(1.0, ge=0, description="gp method, m²: a frontier cluster whose goal "
                             "would show less unknown area than this, looking round to "
                             "sensor_range, is not significant (the stop's sensitivity; "
-                            "missed_area_m2 counts regions of 1 m²); only the unknown the robot "
-                            "could drive to from the goal counts, as coverage counts only what it "
-                            "reaches. The grid baseline keeps Yamauchi's stop: frontier regions "
-                            "of min_frontier_cells")
+                            "missed_area_m2 counts regions of 1 m²). The grid baseline keeps "
+                            "Yamauchi's stop: frontier regions of min_frontier_cells")
     sensor_range: float = Field(8.0, gt=0, description="m, the laser's, for that look")
     closed_stretch: float = Field(0.75, gt=0, description="meters of path ahead of a robot that "
                                   "got stuck closed to later paths: a passage the map reads "

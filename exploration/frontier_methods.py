@@ -112,19 +112,18 @@ class CFrontier:
 
     def _significant(self, cluster: FrontierCluster, frontier: Frontier,
                      reachable: Reachable) -> FrontierCluster | None:
-        """The cluster when a look round from its goal shows ``min_gain`` (when it has none,
-        from its centroid, where the robot does not stand: a point of frontier, often on a
-        wall, so all the unknown its rays cross counts); else, served from the nearest goal by another of its points that
+        """The cluster when a look round from its goal (from its centroid when it has none)
+        shows ``min_gain``; else, served from the nearest goal by another of its points that
         does (k-means can join a remnant beside the robot with a corridor's end across the
         building: the goal by the nearest point sees only the remnant), tried at ``VIEWS``
         points spread over the cluster; else None."""
         c = self.config
 
-        def gain(at: np.ndarray, standing: bool = True) -> float:
-            return look(frontier, reachable, at, c, self.costmap, standing)
+        def gain(at: np.ndarray) -> float:
+            return look(frontier, reachable, at, c, self.costmap)
 
         if cluster.goal is None:
-            return cluster if gain(cluster.centroid, standing=False) >= c.min_gain else None
+            return cluster if gain(cluster.centroid) >= c.min_gain else None
         if gain(cluster.goal) >= c.min_gain:
             return cluster
         view = nearest_view(cluster.points, cluster.goal, reachable, best_cell_near,
@@ -229,9 +228,13 @@ class DoorFrontier(GridFrontier):
         """Each region served from the reachable cell nearest in a straight line to one of
         ``VIEWS`` of its points whose look shows ``min_gain`` (the nearest of those by path):
         a door through a thick wall is a tunnel, seen through from within it, not from the
-        corridor beside it, where the path to the region is shortest."""
+        corridor beside it, where the path to the region is shortest. A door is a way in for
+        the robot, so its look counts only the unknown the robot could drive to from the goal:
+        not the strip along a grazed wall, nor the inside of a block seen through a gap in its
+        faces narrower than the robot."""
         def shows(goal: np.ndarray) -> bool:
-            return look(frontier, reachable, goal, self.config, self.costmap) >= self.config.min_gain
+            return look(frontier, reachable, goal, self.config, self.costmap,
+                        self.config.robot_radius) >= self.config.min_gain
 
         clusters = []
         for k in super().clusters(frontier, reachable, blacklist, rng):
@@ -254,17 +257,15 @@ def look_map(snapshot: MapSnapshot, costmap: CostmapConfig) -> np.ndarray:
 
 
 def look(frontier: Frontier, reachable: Reachable, at: np.ndarray, config: ExplorerConfig,
-         costmap: CostmapConfig, standing: bool = True) -> float:
+         costmap: CostmapConfig, clear_of: float = 0.0) -> float:
     """m² of unknown space a look round from ``at`` (2,) would show on ``frontier.evidence``,
-    out to the laser's range; ``standing`` (the robot stands at ``at``): counting only where
-    it could drive from there (farther than its radius from the obstacles seen,
-    ``frontier.blocked``: ``gain.visible_unknown_area``), else all the unknown the rays cross.
-    The rays stop at obstacles Λo predicts too, but passages are judged by what was seen: Λo
-    spreads a door's jambs into the unknown beyond it, and narrowed office_d's 1 m doors to
-    less than the robot."""
+    out to the laser's range; with ``clear_of`` (m), only where a disc of that radius could
+    move from ``at``, keeping it from the obstacles seen (``frontier.blocked``;
+    ``gain.visible_unknown_area``). The rays stop at obstacles Λo predicts too, but passages
+    are judged by what was seen: Λo spreads a door's jambs into the unknown past it, and
+    narrowed office_d's and office_f's doors to less than the robot."""
     return visible_unknown_area(frontier.evidence, reachable.origin, reachable.resolution, at,
-                                config.sensor_range, costmap.occupied_above,
-                                config.robot_radius if standing else 0.0, frontier.blocked)
+                                config.sensor_range, costmap.occupied_above, clear_of, frontier.blocked)
 
 
 def nearest_view(points: np.ndarray, first: np.ndarray, reachable: Reachable,

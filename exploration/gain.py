@@ -3,12 +3,12 @@ map the planner reads. The stop test drops frontier clusters that would show les
 sensitivity asked for, so that a run ends when nothing worth a trip is left instead of driving
 to remnants (a few unknown cells in a corner, a speck behind furniture).
 
-Only unknown cells the robot could drive to from the goal count: those farther than its radius
-from every occupied cell, joined to the goal through such cells. Coverage counts that space, the
-free space the robot can reach; the rest of the unknown adds nothing to it. The strip along a
-wall seen at a grazing angle and the corner of a room hold no place for the robot's centre,
-and the inside of a block seen through a gap in its seen faces narrower than the robot is
-no place it can reach; a room or a corridor behind a door is."""
+The door check counts only the unknown cells the robot could drive to from the goal: those
+farther than its radius from every obstacle seen, joined to the goal through such cells. A door
+is a way in for the robot; the strip along a wall seen at a grazing angle, the corner of a room,
+and the inside of a block seen through a gap narrower than the robot are not. (The C-frontier
+clusters' own test counts every cell: with the radius, unknown strips 0.27-0.5 m from walls,
+space coverage counts, were left, and office_b's GP run stopped at 98.8 %.)"""
 
 from __future__ import annotations
 

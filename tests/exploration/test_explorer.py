@@ -264,12 +264,11 @@ def test_nearer_of_two_equal_openings_first():
 
 def test_frontier_behind_a_gap_narrower_than_the_robot_is_unreachable():
     """A 0.3 m gap in a 0.3 m thick right wall (x = 8.0-8.2 m), through which the robot saw a
-    0.3 m wide strip of free space 1.2 m past the wall. The robot (0.5 m across, 0.3 m
-    clearance to occupied cells) cannot pass the gap, so it stays in the room, where the
-    passable cells end at x = 7.7 m, while the frontier points start at x = 8.4 m: farther
-    than the 0.6 m reach. From the room a look through the gap shows unknown space, but none
-    that a disc of the robot's radius could get to through the gap: the frontier is not
-    significant, and exploration ends at once, without a trip to the gap."""
+    0.3 m wide strip of free space 1.2 m past the wall. The robot (0.5 m across, 0.3 m clearance to occupied cells) cannot
+    pass the gap, so it stays in the room, where the passable cells end at x = 7.7 m, while
+    the frontier points start at x = 8.4 m: farther than the 0.6 m reach. The robot first goes
+    to look at the strip from the passable cell nearest to it that sees it (x = 7.7 m, at the
+    gap's rows); from there frontier remains, but no goal can serve it."""
     config = ExplorerConfig()
     snapshot = room([("right", 38, 41, 12)], wall=3)
     points = frontier_points(snapshot)
@@ -278,14 +277,18 @@ def test_frontier_behind_a_gap_narrower_than_the_robot_is_unreachable():
     inside = ix < 80
     assert ix[inside].max() * RES <= 7.7 + 1e-9
     assert points[:, 0].min() - ix[inside].max() * RES > config.goals.reach
-    at_gap = (7.7, 3.95)
-    assert visible_unknown_area(snapshot.prob, snapshot.origin, RES, at_gap, 8.0, 0.65) > config.min_gain
-    assert visible_unknown_area(snapshot.prob, snapshot.origin, RES, at_gap, 8.0, 0.65,
-                                config.robot_radius) == 0.0
 
     explorer = Explorer(config)
-    plan = explorer.plan(snapshot, ROBOT)
-    assert plan.goal is None and plan.done == "frontiers_exhausted" and explorer.goals_chosen == 0
+    look = explorer.plan(snapshot, ROBOT)
+    assert look.new_goal and look.goal[0] == pytest.approx(7.7) and 3.8 <= look.goal[1] <= 4.1
+    explorer.reached()
+    plan = explorer.plan(snapshot, gtsam.Pose2(*look.goal, 0.0))
+    assert plan.goal is None and plan.done == "no_reachable_goal"
+    assert plan.clusters and explorer.goal is None
+    for cluster in plan.clusters:
+        assert cluster.goal is None and np.isinf(cluster.distance) and cluster.utility == -np.inf
+        assert (cluster.points[:, 0] > 8.2).all()
+    assert sum(len(k.points) for k in plan.clusters) <= len(points)
 
 
 def test_grid_method_on_the_same_maps_keeps_its_goal_too():
