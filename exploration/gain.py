@@ -29,7 +29,8 @@ def visible_unknown_area(prob: np.ndarray, origin, resolution: float, at, sensor
     a disc of radius ``clear_of`` (m) centred at ``at`` could move to: cells farther than
     ``clear_of`` from every cell of ``walls`` (h, w) bool (centre to centre; by default the
     occupied cells), joined to the cell of ``at`` through such cells by steps to the 4
-    neighbours. ``prob`` (h, w) has cell (0, 0)'s centre at ``origin`` (2,), meters."""
+    neighbours within ``sensor_range`` (a square of that half side). ``prob`` (h, w) has cell
+    (0, 0)'s centre at ``origin`` (2,), meters."""
     half = int(math.ceil(sensor_range / resolution)) + 1          # cells: the window's half side
     start = (np.asarray(at, float) - np.asarray(origin, float)) / resolution
     prob = np.ascontiguousarray(prob, dtype=np.float64)
