@@ -228,13 +228,9 @@ class DoorFrontier(GridFrontier):
         """Each region served from the reachable cell nearest in a straight line to one of
         ``VIEWS`` of its points whose look shows ``min_gain`` (the nearest of those by path):
         a door through a thick wall is a tunnel, seen through from within it, not from the
-        corridor beside it, where the path to the region is shortest. A door is a way in for
-        the robot, so its look counts only the unknown the robot could drive to from the goal:
-        not the strip along a grazed wall, nor the inside of a block seen through a gap in its
-        faces narrower than the robot."""
+        corridor beside it, where the path to the region is shortest."""
         def shows(goal: np.ndarray) -> bool:
-            return look(frontier, reachable, goal, self.config, self.costmap,
-                        self.config.robot_radius) >= self.config.min_gain
+            return look(frontier, reachable, goal, self.config, self.costmap) >= self.config.min_gain
 
         clusters = []
         for k in super().clusters(frontier, reachable, blacklist, rng):
@@ -257,15 +253,11 @@ def look_map(snapshot: MapSnapshot, costmap: CostmapConfig) -> np.ndarray:
 
 
 def look(frontier: Frontier, reachable: Reachable, at: np.ndarray, config: ExplorerConfig,
-         costmap: CostmapConfig, clear_of: float = 0.0) -> float:
+         costmap: CostmapConfig) -> float:
     """m² of unknown space a look round from ``at`` (2,) would show on ``frontier.evidence``,
-    out to the laser's range; with ``clear_of`` (m), only where a disc of that radius could
-    move from ``at``, keeping it from the obstacles seen (``frontier.blocked``;
-    ``gain.visible_unknown_area``). The rays stop at obstacles Λo predicts too, but passages
-    are judged by what was seen: Λo spreads a door's jambs into the unknown past it, and
-    narrowed office_d's and office_f's doors to less than the robot."""
+    out to the laser's range."""
     return visible_unknown_area(frontier.evidence, reachable.origin, reachable.resolution, at,
-                                config.sensor_range, costmap.occupied_above, clear_of, frontier.blocked)
+                                config.sensor_range, costmap.occupied_above)
 
 
 def nearest_view(points: np.ndarray, first: np.ndarray, reachable: Reachable,
