@@ -28,7 +28,7 @@ def scan_normals(points: np.ndarray, config: RegistrationConfig) -> np.ndarray:
     from ±2 of them point anywhere, and the match takes them for evidence along the wall.
 
     Neighbouring hits farther apart than ``normal_max_gap`` (m) are a jump edge; with
-    ``normal_min_incidence_deg`` (λ) the gap allowed grows by the spacing of two beams Δφ apart on
+    ``normal_min_incidence_deg`` (λ, when above 0) the gap allowed grows by the spacing of two beams Δφ apart on
     a surface seen at incidence λ from the nearer range r, r·sin Δφ / sin(λ − Δφ) (the adaptive
     breakpoint of Borges & Aldon 2004), so a wall seen obliquely far down a corridor keeps its
     normals.
@@ -42,7 +42,7 @@ def scan_normals(points: np.ndarray, config: RegistrationConfig) -> np.ndarray:
     ranges = np.linalg.norm(points, axis=1)
     bearing = np.arctan2(points[:, 1], points[:, 0])
     step = np.abs(np.angle(np.exp(1j * np.diff(bearing))))
-    if config.normal_min_incidence_deg is not None:
+    if config.normal_min_incidence_deg > 0:
         incidence = np.radians(config.normal_min_incidence_deg)
         nearer = np.minimum(ranges[:-1], ranges[1:])
         oblique = step < incidence
