@@ -28,10 +28,10 @@ def scan_normals(points: np.ndarray, config: RegistrationConfig) -> np.ndarray:
     from ±2 of them point anywhere, and the match takes them for evidence along the wall.
 
     Neighbouring hits farther apart than ``normal_max_gap`` (m) are a jump edge; with
-    ``normal_min_incidence_deg`` (λ, when above 0) the gap allowed grows by the spacing of two beams Δφ apart on
-    a surface seen at incidence λ from the nearer range r, r·sin Δφ / sin(λ − Δφ) (the adaptive
-    breakpoint of Borges & Aldon 2004), so a wall seen obliquely far down a corridor keeps its
-    normals.
+    ``normal_min_incidence_deg`` (λ) above 0 the gap allowed grows by the spacing of two beams Δφ
+    apart on a surface seen at incidence λ from the nearer range r, r·sin Δφ / sin(λ − Δφ) (the
+    adaptive breakpoint of Borges & Aldon 2004), so a wall seen obliquely far down a corridor
+    keeps its normals.
     """
     m = len(points)
     normals = np.full((m, 2), np.nan)
