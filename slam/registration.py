@@ -31,7 +31,9 @@ def scan_normals(points: np.ndarray, config: RegistrationConfig) -> np.ndarray:
     ``normal_min_incidence_deg`` (λ) above 0 the gap allowed grows by the spacing of two beams Δφ
     apart on a surface seen at incidence λ from the nearer range r, r·sin Δφ / sin(λ − Δφ) (the
     adaptive breakpoint of Borges & Aldon 2004), so a wall seen obliquely far down a corridor
-    keeps its normals.
+    keeps its normals. Only neighbouring beams get that allowance: hits farther apart in bearing
+    than 1.5 times the scan's smallest step have beams with no return between them, and as Δφ
+    nears λ the allowance would join any two surfaces (office_h: a wall 7 m away to a box at 2 m).
     """
     m = len(points)
     normals = np.full((m, 2), np.nan)
@@ -45,7 +47,8 @@ def scan_normals(points: np.ndarray, config: RegistrationConfig) -> np.ndarray:
     if config.normal_min_incidence_deg > 0:
         incidence = np.radians(config.normal_min_incidence_deg)
         nearer = np.minimum(ranges[:-1], ranges[1:])
-        oblique = step < incidence
+        adjacent = step < 1.5 * step.min()
+        oblique = adjacent & (step < incidence)
         limit[oblique] += nearer[oblique] * np.sin(step[oblique]) / np.sin(incidence - step[oblique])
     close = gaps < limit
     ok = np.zeros(m, bool)

@@ -82,6 +82,23 @@ def test_adaptive_breakpoint_keeps_normals_of_an_oblique_wall_but_not_across_a_j
     assert np.array_equal(np.isnan(fixed[near_wall, 0]), np.isnan(adaptive[near_wall, 0]))
 
 
+def test_adaptive_breakpoint_does_not_bridge_beams_with_no_return():
+    """A wall 6 m to the left, seen from x = 9 m on (bearings up to 33.7°), then no return until a
+    near box face at x = 1.2 m (from 37.8°), seen by a 0.5° laser. The allowance r·sin Δφ / sin(λ − Δφ)
+    is for neighbouring beams: across the eight beams with no return between the wall and the box
+    (Δφ = 4.5°, close to λ = 5°) it would reach 14 m and join the box to the wall 9 m away, and
+    normals fitted across would be neither's. Every normal is its own surface's."""
+    scan = cast(gtsam.Pose2(), [(1, 6.0, 9.0, 60.0), (0, 1.2, 0.93, 1.3)], n=361, max_range=80.0)
+    points = scan.points()
+    on_wall, on_box = np.isclose(points[:, 1], 6.0), np.isclose(points[:, 0], 1.2)
+    assert np.all(on_wall | on_box)
+    normals = scan_normals(points, RegistrationConfig(normal_min_incidence_deg=5.0))
+    fitted = np.isfinite(normals[:, 0])
+    assert (fitted & on_wall).sum() >= 20 and (fitted & on_box).sum() >= 5
+    assert np.all(normals[fitted & on_wall, 1] < -math.cos(math.radians(1.0)))
+    assert np.all(normals[fitted & on_box, 0] < -math.cos(math.radians(1.0)))
+
+
 def test_corridor_walls_seen_only_far_ahead_give_the_heading_with_the_adaptive_breakpoint():
     """A 4 m wide corridor whose walls start 6 m ahead of a 1° laser: their hits lie more than 0.3 m
     apart, so with the fixed gap no submap point has a normal and the match has no information
