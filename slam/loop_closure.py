@@ -138,9 +138,10 @@ class LoopClosureDetector:
             found = self._correlative(candidate, points, submap, [xj.between(graph.pose(i)) for i in members],
                                       [scans[i][0] for i in members])
             if found is not None and found.inlier_fraction > best.inlier_fraction:
-                if not (self._same_place(found.pose, best.pose)
-                        or explains_far_more(found, best, len(points), reg.config.min_points)):
-                    self.rejected["ambiguous"] += 1     # two places explain the scan about as well
+                if not self._same_place(found.pose, best.pose) and (
+                        best.inlier_fraction >= c.min_inlier_fraction
+                        or not explains_far_more(found, best, len(points), reg.config.min_points)):
+                    self.rejected["ambiguous"] += 1     # two places explain the scan well enough
                     return None
                 best = found
         if best.inlier_fraction < c.min_inlier_fraction:
