@@ -146,7 +146,8 @@ class LoopClosureConfig(_Config):
     symmetry_translation: float = Field(0.1, gt=0, description="m: forward ∘ reverse registration gate")
     symmetry_rotation_deg: float = Field(1.0, gt=0, description="deg: forward ∘ reverse registration gate")
     mahalanobis_gate: float = Field(16.27, gt=0, description="χ²(3) gate (0.999) against the graph's prediction:"
-                                                              " a loop beyond it needs a consistent partner")
+                                                              " a loop beyond it, or one the correlative search"
+                                                              " found, needs a consistent partner")
     mahalanobis_reject: float = Field(200.0, gt=0, description="beyond this a verified loop is rejected outright")
     pair_window: int = Field(15, ge=1, description="keyframes a loop waits for a consistent partner")
     pair_translation: float = Field(0.1, gt=0, description="m: pairwise consistency tolerance")

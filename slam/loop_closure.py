@@ -37,11 +37,13 @@ class Candidate:
 
 @dataclass
 class LoopClosure:
-    """A verified loop: ``match.pose`` is keyframe k in the frame of keyframe j."""
+    """A verified loop: ``match.pose`` is keyframe k in the frame of keyframe j; ``searched``
+    when the correlative search found it, not registration from the graph's prediction."""
 
     candidate: Candidate
     match: Match
     mahalanobis: float
+    searched: bool = False
 
 
 def closeness_probability(predicted: gtsam.Pose2, covariance: np.ndarray, radius: float) -> float:
@@ -131,6 +133,7 @@ class LoopClosureDetector:
             self.rejected["no_start"] += 1
             return None
         best = reg.register(points, submap, best_start, start_level=max(coarse - 1, 0))
+        searched = False
         if self._poor_guess(candidate) or (best.inlier_fraction < c.min_inlier_fraction
                                            and best_score < c.coarse_accept):
             # a guess too uncertain for registration's basin (it may settle in a wrong local
@@ -143,7 +146,7 @@ class LoopClosureDetector:
                         or not explains_far_more(found, best, len(points), reg.config.min_points)):
                     self.rejected["ambiguous"] += 1     # two places explain the scan well enough
                     return None
-                best = found
+                best, searched = found, True
         if best.inlier_fraction < c.min_inlier_fraction:
             self.rejected["inliers"] += 1
             return None
@@ -155,7 +158,7 @@ class LoopClosureDetector:
             return None
         error = candidate.predicted.localCoordinates(best.pose)
         d2 = float(error @ np.linalg.solve(candidate.covariance + best.covariance, error))
-        return LoopClosure(candidate, best, d2)
+        return LoopClosure(candidate, best, d2, searched)
 
     def _same_place(self, a: gtsam.Pose2, b: gtsam.Pose2) -> bool:
         """Are two poses one within the symmetry tolerances?"""

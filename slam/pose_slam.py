@@ -124,7 +124,7 @@ class PoseSlam:
             if loop.mahalanobis > c.mahalanobis_reject:
                 self.detector.rejected["mahalanobis"] += 1
                 continue
-            if loop.mahalanobis <= c.mahalanobis_gate:
+            if loop.mahalanobis <= c.mahalanobis_gate and not loop.searched:
                 accepted = [loop]
             else:
                 partners = [p for p in self._pending if self.detector.consistent(p, loop, self.graph)]
