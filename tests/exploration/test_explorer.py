@@ -423,6 +423,30 @@ def test_a_cluster_is_significant_from_its_far_end_when_its_near_end_is_a_remnan
 
 
 
+
+def test_a_cluster_is_significant_from_where_its_out_of_reach_end_is_seen():
+    """The remnant pocket beside the robot shares a cluster with the frontier seen through a
+    0.4 m gap in a 0.4 m thick right wall (x 8.0-8.3 m): no passable cell is within
+    ``goals.reach`` (0.6 m) of that frontier, which starts at x = 8.5 m, so none of its points
+    has a goal by it. The goal by the pocket shows under ``min_gain`` with a 2 m sensor.
+    The cluster is still significant, served from where the robot would look through the gap
+    (``Approach``): the reachable cell nearest in a straight line to it, before the gap."""
+    snapshot = room([("right", 38, 42, 10)], wall=4)
+    snapshot.prob[37:43, 57:63] = UNKNOWN
+    snapshot.prob_occ[37:43, 57:63] = UNKNOWN
+    config = ExplorerConfig(goals=GoalConfig(min_points=5, points_per_cluster=1000), sensor_range=2.0)
+    points = frontier_points(snapshot)
+    reachable = Explorer(config)._reachable(snapshot, ROBOT)
+    cells = np.round((points - snapshot.origin) / RES).astype(int)
+    beyond = points[:, 0] > 7.0
+    assert beyond.any() and not np.isfinite(reachable.near[cells[beyond, 1], cells[beyond, 0]]).any()
+    plan = Explorer(config).plan(snapshot, ROBOT)
+    assert plan.new_goal and len(plan.clusters) == 1 and len(plan.clusters[0].points) == len(points)
+    assert 7.4 <= plan.goal[0] < 7.9 and 3.8 <= plan.goal[1] <= 4.2           # before the gap
+    assert visible_unknown_area(snapshot.prob, snapshot.origin, RES, plan.goal, 2.0,
+                                config.costmap.occupied_above) >= config.min_gain
+    assert_passable_path(plan, snapshot, config)
+
 def test_a_passage_the_robot_could_not_pass_is_closed_not_retried():
     """The right door's hits leave 0.46 m between its jambs: the costmap's squeeze lets paths
     through it (test_costmap). The robot, stuck 0.4 m short of the door on its way to a point
