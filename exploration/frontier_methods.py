@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 from scipy import ndimage
 
-from exploration.costmap import CostmapConfig, classify
+from exploration.costmap import CostmapConfig, classify, distance_to_points
 from exploration.frontier import frontier_map
 from exploration.gain import visible_unknown_area
 from exploration.goals import Blacklist, FrontierCluster, extract_goals
@@ -73,13 +73,15 @@ class Frontier:
     cells), ``cells`` (n, 2) its significant cells (ix, iy), for the grid method its
     ``regions`` (a list of (m, 2) cell arrays), and for the C-frontier method the map
     ``evidence`` (h, w) its significance test looks round on (the snapshot's evidence, occupied
-    too at unknown cells where Λo is); ``blocked`` (h, w) bool, the cells the laser cannot see through."""
+    too at unknown cells where Λo is); ``blocked`` (h, w) bool, the cells the laser cannot see
+    through; for the door check, ``seen`` (h, w) the snapshot's evidence itself."""
 
     values: np.ndarray
     cells: np.ndarray
     regions: tuple[np.ndarray, ...] = ()
     evidence: np.ndarray | None = None
     blocked: np.ndarray | None = None
+    seen: np.ndarray | None = None
 
 
 class CFrontier:
@@ -152,12 +154,17 @@ class GridFrontier:
         return self.config.min_frontier_cells
 
     def frontier(self, snapshot: MapSnapshot) -> Frontier:
-        regions = grid_frontiers(evidence(snapshot), self.costmap, self.min_cells(snapshot.resolution))
+        regions = grid_frontiers(evidence(snapshot), self.costmap, self.min_cells(snapshot.resolution),
+                                 self.surfaces(snapshot))
         cells = np.vstack(regions) if regions else np.zeros((0, 2), int)
         values = np.zeros(snapshot.prob.shape)
         values[cells[:, 1], cells[:, 0]] = 1.0
         return Frontier(values, cells, tuple(regions),
                         blocked=evidence(snapshot) > self.costmap.occupied_above)
+
+    def surfaces(self, snapshot: MapSnapshot) -> np.ndarray | None:
+        """(h, w) bool, cells that are no frontier whatever the grid reads there; None: none."""
+        return None
 
     def clusters(self, frontier: Frontier, reachable: Reachable, blacklist: Blacklist,
                  rng: np.random.Generator) -> list[FrontierCluster]:
@@ -204,12 +211,19 @@ class DoorFrontier(GridFrontier):
     edge-on is unknown up to its unseen walls and beyond; one whose every wall was seen from
     outside is taken for a block.
 
-    The look sees through ``look_map``, so where the obstacle GP joins a door's jambs (Λo high
-    in the unknown cells behind it) it sees nothing past the door: office_d's 28 m² room behind
-    a 1 m door showed 0.4 m² so, 49 m² through the evidence alone. Looking through the evidence
-    alone found that room, but also sent the robot to gaps in grazed walls and junctions that
-    open onto the insides of thick walls (office_a GP 387 -> 532 m, the cave demo 52 -> 65 m),
-    so it is not done: what tells a door seen edge-on from such a gap is still to find."""
+    A door is an opening: no cell of its region holds a laser endpoint (``surfaces``). A wall
+    grazed from along it is marked free where the beams that ran along it before ending
+    farther on crossed its cells, beside the unknown space behind it, so its frontier runs on
+    its own line, through cells where other beams ended: office_d's grazed walls left such
+    regions, door-long, beside a door seen edge-on whose cells held none.
+
+    The look sees through ``look_map``, but not where the obstacle GP joins a door's jambs (Λo
+    high in the unknown cells behind it, within a door's longest width of the region, farther
+    than the robot's radius from every hit): it would see nothing past the door (office_d's
+    28 m² room behind a 1 m door showed 0.02 m²). Λo still closes what lies within the robot's
+    radius of a hit, as the inside of a thick wall between its two faces (office_b: the inside
+    of a 0.3 m wall, grazed along one face, opened onto the space beyond the building at its
+    junction with another), and the unseen faces of blocks farther on."""
 
     def min_cells(self, resolution: float) -> int:
         return max(1, math.floor(2 * self.config.robot_radius / resolution + 1e-9))
@@ -228,8 +242,25 @@ class DoorFrontier(GridFrontier):
                         if (any_length or len(r) < self.config.min_frontier_cells)
                         and beside[r[:, 1], r[:, 0]].any())
         cells = np.vstack(regions) if regions else np.zeros((0, 2), int)
-        return dataclasses.replace(found, cells=cells, regions=regions,
-                                   evidence=look_map(snapshot, self.costmap))
+        looked = look_map(snapshot, self.costmap)
+        seen = evidence(snapshot)
+        if snapshot.hits is not None:       # Λo's closing within the robot's radius of a hit stays
+            near = np.isfinite(distance_to_points(snapshot.hits, snapshot.origin, snapshot.resolution,
+                                                  seen.shape, self.config.robot_radius))
+            seen = np.where(near, looked, seen)
+        return dataclasses.replace(found, cells=cells, regions=regions, evidence=looked, seen=seen)
+
+    def surfaces(self, snapshot: MapSnapshot) -> np.ndarray | None:
+        """(h, w) bool, the cells holding a hit (a beam ended there: a surface); None without
+        hits."""
+        if snapshot.hits is None:
+            return None
+        held = np.zeros(snapshot.prob.shape, dtype=bool)
+        cells = np.round((snapshot.hits - np.asarray(snapshot.origin)) / snapshot.resolution).astype(int)
+        h, w = held.shape
+        inside = (cells[:, 0] >= 0) & (cells[:, 0] < w) & (cells[:, 1] >= 0) & (cells[:, 1] < h)
+        held[cells[inside, 1], cells[inside, 0]] = True
+        return held
 
     def clusters(self, frontier: Frontier, reachable: Reachable, blacklist: Blacklist,
                  rng: np.random.Generator) -> list[FrontierCluster]:
@@ -237,15 +268,35 @@ class DoorFrontier(GridFrontier):
         ``VIEWS`` of its points whose look shows ``min_gain`` (the nearest of those by path):
         a door through a thick wall is a tunnel, seen through from within it, not from the
         corridor beside it, where the path to the region is shortest."""
-        def shows(goal: np.ndarray) -> bool:
-            return look(frontier, reachable, goal, self.config, self.costmap) >= self.config.min_gain
-
         clusters = []
         for k in super().clusters(frontier, reachable, blacklist, rng):
+            through = dataclasses.replace(frontier, evidence=self._through(frontier, k.points, reachable))
+
+            def shows(goal: np.ndarray) -> bool:
+                return look(through, reachable, goal, self.config, self.costmap) >= self.config.min_gain
+
             view = nearest_view(k.points, k.centroid, reachable, nearest_reachable_cell, shows)
             if view is not None:
                 clusters.append(dataclasses.replace(k, goal=view[1], distance=view[0], utility=-view[0]))
         return sorted(clusters, key=lambda k: -k.utility)
+
+    def _through(self, frontier: Frontier, points: np.ndarray, reachable: Reachable) -> np.ndarray:
+        """(h, w) ``frontier.evidence`` with the evidence itself (``seen``) within a door's
+        longest width (``min_frontier_cells``) of ``points`` (k, 2), a region's, meters: where
+        Λo joins the door's jambs."""
+        if frontier.seen is None:
+            return frontier.evidence
+        span = self.config.min_frontier_cells
+        h, w = frontier.seen.shape
+        cells = reachable.cell(points)
+        x0, y0 = np.maximum(cells.min(axis=0) - span, 0)
+        x1, y1 = np.minimum(cells.max(axis=0) + span + 1, [w, h])
+        window = np.ones((y1 - y0, x1 - x0), dtype=bool)
+        window[cells[:, 1] - y0, cells[:, 0] - x0] = False
+        near = ndimage.distance_transform_edt(window) <= span
+        through = frontier.evidence.copy()
+        through[y0:y1, x0:x1][near] = frontier.seen[y0:y1, x0:x1][near]
+        return through
 
 
 def look_map(snapshot: MapSnapshot, costmap: CostmapConfig) -> np.ndarray:

@@ -8,9 +8,11 @@ from scipy import ndimage
 from exploration.costmap import CostmapConfig, classify
 
 
-def grid_frontiers(prob: np.ndarray, config: CostmapConfig, min_size: int = 10) -> list[np.ndarray]:
+def grid_frontiers(prob: np.ndarray, config: CostmapConfig, min_size: int = 10,
+                   exclude: np.ndarray | None = None) -> list[np.ndarray]:
     """Frontier regions of a grid: free cells next to unknown ones, 8-connected, at least
-    ``min_size`` cells (the paper's Fig. 6 keeps frontiers larger than 9 cells of 0.2 m).
+    ``min_size`` cells (the paper's Fig. 6 keeps frontiers larger than 9 cells of 0.2 m),
+    leaving out the cells of ``exclude`` (h, w) bool when given.
 
     Returns:
         list of (m, 2) integer cells (ix, iy), one array per region.
@@ -19,6 +21,8 @@ def grid_frontiers(prob: np.ndarray, config: CostmapConfig, min_size: int = 10) 
     unknown = ~free & ~occupied
     cross = ndimage.generate_binary_structure(2, 1)
     frontier = free & ndimage.binary_dilation(unknown, structure=cross)
+    if exclude is not None:
+        frontier &= ~exclude
     labels, n = ndimage.label(frontier, structure=np.ones((3, 3)))
     iy, ix = np.nonzero(labels)
     order = np.argsort(labels[iy, ix], kind="stable")

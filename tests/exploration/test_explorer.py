@@ -503,15 +503,11 @@ def test_a_door_seen_edge_on_is_explored_by_both_methods(method):
     assert 7.2 <= plan.goal[0] <= 8.2 and 3.6 <= plan.goal[1] <= 4.4
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "the door check looks through Λo, which closes the door (office_d GP misses a 28 m² room "
-    "so); looking through the evidence found it but cost up to 145 m of travel on other maps, "
-    "at gaps in grazed walls"))
 def test_a_door_seen_edge_on_is_explored_where_the_obstacle_gp_joins_its_jambs():
     """The same door, with Λo 0.9 in a 0.4 m band of unknown cells along the wall's outer
     face and across the door, as the obstacle GP predicts where a wall's hits stand on both
     sides of a gap (a look through ``look_map`` shows nothing past it): the C-frontier
-    method's door check should still see the room behind and send the robot to it (a grid has
+    method's door check still sees the room behind and sends the robot to it (a grid has
     no Λo)."""
     snapshot = room([("right", 36, 44, 1)])
     snapshot.prob_occ[18:62, 82:86] = WALL
@@ -519,6 +515,49 @@ def test_a_door_seen_edge_on_is_explored_where_the_obstacle_gp_joins_its_jambs()
     assert plan.done is None and plan.goal is not None
     assert 7.2 <= plan.goal[0] <= 8.2 and 3.6 <= plan.goal[1] <= 4.4
 
+
+
+def with_wall_hits(snapshot, *extra):
+    """``snapshot`` with a hit at the centre of each wall cell, and at the ``extra`` (x, y)."""
+    iy, ix = np.nonzero(snapshot.prob == WALL)
+    return dataclasses.replace(snapshot, hits=np.vstack([RES * np.column_stack([ix, iy]),
+                                                         np.reshape(extra, (-1, 2))]))
+
+
+@pytest.mark.parametrize("method", ["gp", "grid"])
+def test_a_door_sized_frontier_whose_cells_hold_hits_is_a_grazed_wall(method):
+    """The door seen edge-on of the test above, with a hit in each of its 8 frontier cells
+    (x = 8.2 m, y 3.6-4.3 m), as a wall grazed from along it leaves: the beams that ran along
+    it before ending farther on marked its cells free, while others ended in them. It is no
+    opening, and the run ends; with the walls' hits alone, the door is one."""
+    door = room([("right", 36, 44, 1)])
+    grazed = with_wall_hits(door, [(8.2, RES * row) for row in range(36, 44)])
+    plan = Explorer(ExplorerConfig(method=method)).plan(grazed, ROBOT)
+    assert plan.goal is None and plan.done == "frontiers_exhausted"
+    plan = Explorer(ExplorerConfig(method=method)).plan(with_wall_hits(door), ROBOT)
+    assert 7.2 <= plan.goal[0] <= 8.2 and 3.6 <= plan.goal[1] <= 4.4
+
+
+def test_the_door_check_does_not_look_into_a_thick_wall():
+    """The right wall is 0.4 m thick (x 8.0-8.3 m) and its inside (x 8.1-8.2 m) was never seen:
+    unknown, open at the top onto the unknown space round the building, Λo high in it between
+    the wall's two faces. Its inner face was grazed over y 4.7-5.9 m: free, with hits 0.7 m
+    apart, so it leaves frontier pieces as long as a door (5-6 cells) between them. Λo stays
+    closed within the robot's radius of the hits, so the look from before the face sees
+    nothing inside the wall, and the run ends; through the evidence alone, it would see along
+    the wall's inside to the space beyond its top."""
+    snapshot = room()
+    snapshot.prob[:, 80:84], snapshot.prob_occ[:, 80:84] = UNKNOWN, UNKNOWN
+    snapshot.prob[18:62, 80:84:3], snapshot.prob_occ[18:62, 80:84] = WALL, WALL
+    snapshot.prob[47:60, 80] = FREE
+    face = [(8.0, RES * row) for row in (47, 54)]
+    thick = with_wall_hits(snapshot, face)
+    explorer = Explorer(ExplorerConfig())
+    doors = explorer.doors.frontier(thick)
+    assert sorted(len(r) for r in doors.regions) == [5, 6]
+    plan = explorer.plan(thick, ROBOT)
+    assert plan.goal is None and plan.done == "frontiers_exhausted"
+    assert visible_unknown_area(thick.prob, thick.origin, RES, (7.7, 5.0), 8.0, 0.65) > 1.0
 
 @pytest.mark.parametrize("method", ["gp", "grid"])
 def test_a_door_s_goal_is_kept_while_its_frontier_lengthens(method):
