@@ -14,12 +14,14 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 from scipy import ndimage
+from scipy.spatial import cKDTree
 
 from exploration.costmap import CostmapConfig, classify, distance_to_points
 from exploration.frontier import frontier_map
 from exploration.gain import visible_unknown_area
 from exploration.goals import Blacklist, FrontierCluster, extract_goals
 from exploration.grid_frontier import grid_frontiers
+from exploration.openings import holding_hits, in_a_wall_line
 from exploration.paths import Approach, best_cell_near, nearest_reachable_cell, path_to
 from mapping.metrics import KNOWN
 from mapping.occupancy import MapSnapshot
@@ -241,6 +243,11 @@ class DoorFrontier(GridFrontier):
         regions = tuple(r for r in found.regions
                         if (any_length or len(r) < self.config.min_frontier_cells)
                         and beside[r[:, 1], r[:, 0]].any())
+        if snapshot.hits is not None and len(snapshot.hits) and regions:
+            hits = cKDTree(snapshot.hits)
+            origin, resolution = np.asarray(snapshot.origin, float), snapshot.resolution
+            regions = tuple(r for r in regions
+                            if in_a_wall_line(origin + resolution * r, hits, 2 * self.config.robot_radius))
         cells = np.vstack(regions) if regions else np.zeros((0, 2), int)
         looked = look_map(snapshot, self.costmap)
         seen = evidence(snapshot)
@@ -255,12 +262,7 @@ class DoorFrontier(GridFrontier):
         hits."""
         if snapshot.hits is None:
             return None
-        held = np.zeros(snapshot.prob.shape, dtype=bool)
-        cells = np.round((snapshot.hits - np.asarray(snapshot.origin)) / snapshot.resolution).astype(int)
-        h, w = held.shape
-        inside = (cells[:, 0] >= 0) & (cells[:, 0] < w) & (cells[:, 1] >= 0) & (cells[:, 1] < h)
-        held[cells[inside, 1], cells[inside, 0]] = True
-        return held
+        return holding_hits(snapshot.hits, snapshot.origin, snapshot.resolution, snapshot.prob.shape)
 
     def clusters(self, frontier: Frontier, reachable: Reachable, blacklist: Blacklist,
                  rng: np.random.Generator) -> list[FrontierCluster]:
