@@ -2,9 +2,9 @@
 
 A door seen edge-on and the stretch of a grazed wall between two of its hits both leave a frontier
 region as long as a door, free cells beside unknown space. The laser's endpoints tell them apart:
-a beam ended in a grazed wall's cells (``holding_hits``), and a door lies in a wall's line, its
-jambs' walls running along it, where the unseen stretch of a block's face that ends in a concave
-corner meets a face across it (``in_a_wall_line``).
+a beam ended in a grazed wall's cells (``holding_hits``), and the unseen stretch of a block's face that ends in
+a concave corner continues that face's line up to a face across it (``unseen_end_of_a_face``),
+where a door lies between its jambs' walls or past them.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import math
 import numpy as np
 from scipy.spatial import cKDTree
 
-#: Degrees between a jamb's wall and the opening's line beyond which the two meet in a corner
+#: Degrees between two faces' lines beyond which they meet in a corner
 CORNER = 45.0
 
 
@@ -29,20 +29,31 @@ def holding_hits(hits: np.ndarray, origin, resolution: float, shape: tuple[int, 
     return held
 
 
-def in_a_wall_line(points: np.ndarray, hits: cKDTree, reach: float) -> bool:
-    """Do the hits within ``reach`` m of each end of the region ``points`` (k, 2), meters, run
-    along the region's line (within ``CORNER`` degrees), as a wall's either side of its door
-    do? An end with fewer than three hits near it, or hits in no line, says nothing."""
+def unseen_end_of_a_face(points: np.ndarray, hits: cKDTree, reach: float, tolerance: float) -> bool:
+    """Is the region ``points`` (k, 2), meters, the unseen end of a face that meets another in
+    a concave corner: the hits within ``reach`` m of one of its ends run in a line whose
+    continuation holds every point of the region (within ``tolerance`` m), and those by its
+    other end run across that line (more than ``CORNER`` degrees off it)? A door's region
+    lies in the line of its jambs' walls, or past it where beams went through. An end with
+    fewer than three hits near it, or hits in no line, says nothing."""
     axis = _direction(points)
     if axis is None:
-        return True
+        return False
     along = (points - points.mean(axis=0)) @ axis
+    lines = []
     for end in (points[np.argmin(along)], points[np.argmax(along)]):
         near = hits.data[hits.query_ball_point(end, reach)]
-        wall = _direction(near) if len(near) >= 3 else None
-        if wall is not None and abs(float(wall @ axis)) < math.cos(math.radians(CORNER)):
-            return False
-    return True
+        direction = _direction(near) if len(near) >= 3 else None
+        lines.append(None if direction is None else (near.mean(axis=0), direction))
+    for face, other in (lines, lines[::-1]):
+        if face is None or other is None:
+            continue
+        centre, direction = face
+        offset = points - centre
+        off_line = np.abs(offset[:, 0] * direction[1] - offset[:, 1] * direction[0])
+        if off_line.max() <= tolerance and abs(float(other[1] @ direction)) < math.cos(math.radians(CORNER)):
+            return True
+    return False
 
 
 def _direction(points: np.ndarray) -> np.ndarray | None:
