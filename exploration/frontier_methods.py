@@ -21,7 +21,7 @@ from exploration.frontier import frontier_map
 from exploration.gain import visible_unknown_area
 from exploration.goals import Blacklist, FrontierCluster, extract_goals
 from exploration.grid_frontier import grid_frontiers
-from exploration.openings import holding_hits, unseen_end_of_a_face
+from exploration.openings import holding_hits, in_a_wall_gap
 from exploration.paths import Approach, best_cell_near, nearest_reachable_cell, path_to
 from mapping.metrics import KNOWN
 from mapping.occupancy import MapSnapshot
@@ -246,8 +246,9 @@ class DoorFrontier(GridFrontier):
         if snapshot.hits is not None and len(snapshot.hits) and regions:
             hits = cKDTree(snapshot.hits)
             origin, resolution = np.asarray(snapshot.origin, float), snapshot.resolution
-            regions = tuple(r for r in regions if not unseen_end_of_a_face(
-                origin + resolution * r, hits, 2 * self.config.robot_radius, math.sqrt(2) * resolution))
+            regions = tuple(r for r in regions if in_a_wall_gap(
+                origin + resolution * r, hits, 2 * self.config.robot_radius, math.sqrt(2) * resolution,
+                self.config.robot_radius))
         cells = np.vstack(regions) if regions else np.zeros((0, 2), int)
         looked = look_map(snapshot, self.costmap)
         seen = evidence(snapshot)

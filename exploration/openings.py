@@ -2,21 +2,14 @@
 
 A door seen edge-on and the stretch of a grazed wall between two of its hits both leave a frontier
 region as long as a door, free cells beside unknown space. The laser's endpoints tell them apart:
-a beam ended in a grazed wall's cells (``holding_hits``), and the unseen stretch of a block's face that ends in
-a concave corner continues that face's line up to a face across it (``unseen_end_of_a_face``),
-where a door lies between its jambs' walls or past them.
+a beam ended in a grazed wall's cells (``holding_hits``), and a door lies in a gap of a wall's line, the wall
+running on along that line either side of it (``in_a_wall_gap``).
 """
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from scipy.spatial import cKDTree
-
-#: Degrees between two faces' lines beyond which they meet in a corner
-CORNER = 45.0
-
 
 def holding_hits(hits: np.ndarray, origin, resolution: float, shape: tuple[int, int]) -> np.ndarray:
     """(h, w) bool, the cells of a grid (cell (0, 0)'s centre at ``origin``) that hold one of
@@ -29,31 +22,42 @@ def holding_hits(hits: np.ndarray, origin, resolution: float, shape: tuple[int, 
     return held
 
 
-def unseen_end_of_a_face(points: np.ndarray, hits: cKDTree, reach: float, tolerance: float) -> bool:
-    """Is the region ``points`` (k, 2), meters, the unseen end of a face that meets another in
-    a concave corner: the hits within ``reach`` m of one of its ends run in a line whose
-    continuation holds every point of the region (within ``tolerance`` m), and those by its
-    other end run across that line (more than ``CORNER`` degrees off it)? A door's region
-    lies in the line of its jambs' walls, or past it where beams went through. An end with
-    fewer than three hits near it, or hits in no line, says nothing."""
+def in_a_wall_gap(points: np.ndarray, hits: cKDTree, reach: float, tolerance: float,
+                  side: float) -> bool:
+    """Does the region ``points`` (k, 2), meters, lie in a gap of a wall's line? The line is
+    the hits' within ``reach`` m of one of the region's ends (their principal direction through
+    their mean); the hits within ``tolerance`` m of it, out to ``2 * reach`` of the region,
+    must run along it for at least ``side`` m on either side of the region's span on it (a
+    face across the line is no wall along it), none fall inside that span, and the span itself
+    must be ``side`` m long (a region across the line is not in it) (farther than ``tolerance`` from its ends). A door seen edge-on lies
+    so, or its frontier runs off into the room past it; the unseen stretch of a block's face
+    that ends in a concave corner has the face across it under its end, and a step between two
+    offset faces has each face on one side only. An end with fewer than three hits near it, or
+    hits in no line, says nothing; with nothing said at either end, the region is a door."""
     axis = _direction(points)
     if axis is None:
-        return False
+        return True
     along = (points - points.mean(axis=0)) @ axis
-    lines = []
+    around = np.unique(np.concatenate(hits.query_ball_point(points, 2 * reach)))
+    said = False
     for end in (points[np.argmin(along)], points[np.argmax(along)]):
         near = hits.data[hits.query_ball_point(end, reach)]
         direction = _direction(near) if len(near) >= 3 else None
-        lines.append(None if direction is None else (near.mean(axis=0), direction))
-    for face, other in (lines, lines[::-1]):
-        if face is None or other is None:
+        if direction is None:
             continue
-        centre, direction = face
-        offset = points - centre
-        off_line = np.abs(offset[:, 0] * direction[1] - offset[:, 1] * direction[0])
-        if off_line.max() <= tolerance and abs(float(other[1] @ direction)) < math.cos(math.radians(CORNER)):
+        said = True
+        centre = near.mean(axis=0)
+        wall = hits.data[around] - centre
+        on = np.abs(wall[:, 0] * direction[1] - wall[:, 1] * direction[0]) <= tolerance
+        at = wall[on] @ direction
+        span = (points - centre) @ direction
+        low, high = span.min(), span.max()
+        before, after = at[at < low], at[at > high]
+        inside = (at > low + tolerance) & (at < high - tolerance)
+        if (high - low >= side and not inside.any() and len(before) and len(after)
+                and np.ptp(before) >= side and np.ptp(after) >= side):
             return True
-    return False
+    return not said
 
 
 def _direction(points: np.ndarray) -> np.ndarray | None:

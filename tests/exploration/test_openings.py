@@ -3,7 +3,7 @@
 import numpy as np
 from scipy.spatial import cKDTree
 
-from exploration.openings import holding_hits, unseen_end_of_a_face
+from exploration.openings import holding_hits, in_a_wall_gap
 
 STEP = 0.05                 # a hit every 5 cm along a wall
 TOLERANCE = 0.1 * np.sqrt(2)  # a 0.1 m cell's diagonal
@@ -21,41 +21,47 @@ def region(x, y0, y1):
     return np.column_stack([np.full(int(round((y1 - y0) / 0.1)) + 1, x), np.arange(y0, y1 + 1e-9, 0.1)])
 
 
+def door(hits, points):
+    return in_a_wall_gap(points, cKDTree(hits), 0.5, TOLERANCE, 0.25)
+
+
 def test_a_gap_in_a_straight_wall_is_a_door():
-    """A wall along x = 0 with a 0.8 m gap (y 2.0-2.8 m): its frontier continues the wall's
-    line either side, but the hits by both of its ends run along it."""
-    hits = cKDTree(np.vstack([wall((0, 0), (0, 2.0)), wall((0, 2.8), (0, 5))]))
-    assert not unseen_end_of_a_face(region(0.0, 2.1, 2.7), hits, 0.5, TOLERANCE)
+    """A wall along x = 0 with a 0.8 m gap (y 2.0-2.8 m): the frontier lies in the gap."""
+    hits = np.vstack([wall((0, 0), (0, 2.0)), wall((0, 2.8), (0, 5))])
+    assert door(hits, region(0.0, 2.1, 2.7))
 
 
-def test_the_unseen_end_of_a_face_meeting_a_face_across_it_is_a_corner():
-    """A face along x = 0 down to y = 2.8 m, unseen from there to the face along y = 2.0 m it
-    meets in a concave corner at (0, 2): the frontier continues the upper face's line, and the
-    hits by its lower end run across it, at 90 degrees (at 30 degrees, that face would be the
-    first's continuation)."""
+def test_the_unseen_end_of_a_face_meeting_a_face_across_it_is_no_door():
+    """A face along x = 0 down to y = 2.8 m, unseen from there to the face along y = 2.0 m
+    that it meets in a concave corner at (0, 2), that face running on beyond the corner or not:
+    along x = 0 nothing but the face across lies below the gap, and along y = 2 the face runs
+    under the frontier's end or on one side of it only."""
     face = wall((0, 2.8), (0, 5))
-    across = cKDTree(np.vstack([face, wall((0, 2.0), (2.0, 2.0))]))
-    assert unseen_end_of_a_face(region(0.0, 2.1, 2.7), across, 0.5, TOLERANCE)
-    slant = 2.0 * np.array([np.sin(np.radians(30)), -np.cos(np.radians(30))])
-    slanted = cKDTree(np.vstack([face, wall((0, 2.0), slant + (0, 2.0))]))
-    assert not unseen_end_of_a_face(region(0.0, 2.1, 2.7), slanted, 0.5, TOLERANCE)
+    for across in (wall((0, 2.0), (2.0, 2.0)), wall((-2.0, 2.0), (2.0, 2.0))):
+        assert not door(np.vstack([face, across]), region(0.0, 2.1, 2.7))
 
 
-def test_a_door_beside_a_corner_is_seen_past_the_face_s_line():
-    """A door 0.8 m wide in a wall along y = 2 m, between the corner where a wall along
-    x = 0 rises from it and the wall's end at x = 0.8 m: beams through the door left a frontier
-    running from (0.05, 2.5) to (0.75, 2.05) in the room past it. The hits by its ends run
-    across each other, but the frontier continues neither wall's line: a door."""
-    hits = cKDTree(np.vstack([wall((0, 2.0), (0, 5)), wall((0.8, 2.0), (3, 2.0)), wall((-3, 2.0), (0, 2.0))]))
+def test_a_step_between_two_offset_faces_is_no_door():
+    """Faces along y = 2.0 m (x < 0) and y = 2.5 m (x > 0.6 m) with the frontier running
+    between their ends: each face's line has wall on one side of it only."""
+    hits = np.vstack([wall((-2.0, 2.0), (0, 2.0)), wall((0.6, 2.5), (2.6, 2.5))])
+    t = np.linspace(0.0, 1.0, 7)[:, None]
+    assert not door(hits, np.array([0.05, 2.05]) + t * np.array([0.5, 0.4]))
+
+
+def test_a_door_beside_a_corner_is_a_door():
+    """A door 0.8 m wide in a wall along y = 2 m, between the corner where a wall along x = 0
+    rises from it and the wall's end at x = 0.8 m: beams through the door left a frontier
+    running from (0.05, 2.5) to (0.75, 2.05) in the room past it. Along y = 2 the wall runs on
+    either side of the door."""
+    hits = np.vstack([wall((0, 2.0), (0, 5)), wall((0.8, 2.0), (3, 2.0)), wall((-3, 2.0), (0, 2.0))])
     t = np.linspace(0.0, 1.0, 8)[:, None]
-    points = np.array([0.05, 2.5]) + t * np.array([0.7, -0.45])
-    assert not unseen_end_of_a_face(points, hits, 0.5, TOLERANCE)
+    assert door(hits, np.array([0.05, 2.5]) + t * np.array([0.7, -0.45]))
 
 
-def test_an_end_without_a_wall_line_says_nothing():
-    """Two hits by the lower end (fewer than three) and a line by the upper one: no corner."""
-    hits = cKDTree(np.vstack([[[0.3, 2.0], [0.6, 2.0]], wall((0, 2.8), (0, 5))]))
-    assert not unseen_end_of_a_face(region(0.0, 2.1, 2.7), hits, 0.5, TOLERANCE)
+def test_ends_without_a_wall_line_say_nothing():
+    """Two hits by one end (fewer than three) and none by the other: a door."""
+    assert door(np.array([[0.3, 2.0], [0.6, 2.0], [5.0, 5.0]]), region(0.0, 2.1, 2.7))
 
 
 def test_cells_holding_hits():
