@@ -1,15 +1,16 @@
 """What the hits say about a door-long frontier region: whether it is an opening in a wall.
 
-A door seen edge-on and the stretch of a grazed wall between two of its hits both leave a frontier
-region as long as a door, free cells beside unknown space. The laser's endpoints tell them apart:
-a beam ended in a grazed wall's cells (``holding_hits``), and a door lies in a gap of a wall's line, the wall
-running on along that line either side of it (``in_a_wall_gap``).
+A door seen edge-on and the stretch of a grazed wall between two of its hits both leave a
+frontier region as long as a door, free cells beside unknown space. The laser's endpoints tell
+them apart: a beam ended in a grazed wall's cells (``holding_hits``), and a door lies in a gap
+of a wall's line, the wall running on along that line either side of it (``in_a_wall_gap``).
 """
 
 from __future__ import annotations
 
 import numpy as np
 from scipy.spatial import cKDTree
+
 
 def holding_hits(hits: np.ndarray, origin, resolution: float, shape: tuple[int, int]) -> np.ndarray:
     """(h, w) bool, the cells of a grid (cell (0, 0)'s centre at ``origin``) that hold one of
@@ -25,20 +26,22 @@ def holding_hits(hits: np.ndarray, origin, resolution: float, shape: tuple[int, 
 def in_a_wall_gap(points: np.ndarray, hits: cKDTree, reach: float, tolerance: float,
                   side: float) -> bool:
     """Does the region ``points`` (k, 2), meters, lie in a gap of a wall's line? The line is
-    the hits' within ``reach`` m of one of the region's ends (their principal direction through
-    their mean); the hits within ``tolerance`` m of it, out to ``2 * reach`` of the region,
-    must run along it for at least ``side`` m on either side of the region's span on it (a
-    face across the line is no wall along it), none fall inside that span, and the span itself
-    must be ``side`` m long (a region across the line is not in it) (farther than ``tolerance`` from its ends). A door seen edge-on lies
-    so, or its frontier runs off into the room past it; the unseen stretch of a block's face
-    that ends in a concave corner has the face across it under its end, and a step between two
-    offset faces has each face on one side only. An end with fewer than three hits near it, or
-    hits in no line, says nothing; with nothing said at either end, the region is a door."""
+    the principal direction, through their mean, of the hits within ``reach`` m of one of the
+    region's ends. The region's span on it must be at least ``side`` m long (a region across
+    the line is not in it); the hits within ``tolerance`` m of the line, out to ``2 * reach``
+    m of the region, must run along it for at least ``side`` m either side of that span (a
+    face across the line is no wall along it), and none lie within it (farther than
+    ``tolerance`` from its ends). A door seen edge-on lies so, or its frontier runs off into
+    the room past it; the unseen stretch of a block's face that ends in a concave corner has
+    the face across it under its end, and a step between two offset faces has each face on
+    one side only. An end with fewer than three hits near it, or hits in no line, says
+    nothing; with nothing said at either end, the region is taken for a door."""
     axis = _direction(points)
     if axis is None:
         return True
     along = (points - points.mean(axis=0)) @ axis
-    around = np.unique(np.concatenate(hits.query_ball_point(points, 2 * reach)))
+    around = np.unique(np.concatenate([np.asarray(k, dtype=np.intp)
+                                       for k in hits.query_ball_point(points, 2 * reach)]))
     said = False
     for end in (points[np.argmin(along)], points[np.argmax(along)]):
         near = hits.data[hits.query_ball_point(end, reach)]

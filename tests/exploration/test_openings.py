@@ -60,8 +60,10 @@ def test_a_door_beside_a_corner_is_a_door():
 
 
 def test_ends_without_a_wall_line_say_nothing():
-    """Two hits by one end (fewer than three) and none by the other: a door."""
+    """Two hits by one end (fewer than three) and none by the other, or no hit anywhere
+    near: a door."""
     assert door(np.array([[0.3, 2.0], [0.6, 2.0], [5.0, 5.0]]), region(0.0, 2.1, 2.7))
+    assert door(np.array([[5.0, 5.0]]), region(0.0, 2.1, 2.7))
 
 
 def test_cells_holding_hits():
