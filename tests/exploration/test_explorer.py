@@ -538,6 +538,25 @@ def test_a_door_sized_frontier_whose_cells_hold_hits_is_a_grazed_wall(method):
     assert 7.2 <= plan.goal[0] <= 8.2 and 3.6 <= plan.goal[1] <= 4.4
 
 
+@pytest.mark.parametrize("method", ["gp", "grid"])
+def test_the_unseen_end_of_a_face_at_a_corner_is_no_door(method):
+    """The room's top wall runs on past its top-right corner (to x = 9.5 m), and the right wall
+    was never hit over its top 0.8 m (y 5.2-5.9 m), up to that corner: a door-long frontier with
+    unknown space behind it that reaches the map's edge, as a block's concave corner whose near
+    face was grazed leaves it. Along the right wall's line nothing but the top wall, across it,
+    lies above the gap, and along the top wall's the gap is a point: no door, and the run ends.
+    The same gap halfway up the wall (y 4.0-4.7 m) is one."""
+    def with_gap(rows):
+        snapshot = room()
+        snapshot.prob[60:62, 82:96], snapshot.prob_occ[60:62, 82:96] = WALL, WALL
+        snapshot.prob[rows, 80:82], snapshot.prob_occ[rows, 80:82] = UNKNOWN, UNKNOWN
+        return with_wall_hits(snapshot)
+
+    plan = Explorer(ExplorerConfig(method=method)).plan(with_gap(slice(52, 60)), ROBOT)
+    assert plan.goal is None and plan.done == "frontiers_exhausted"
+    plan = Explorer(ExplorerConfig(method=method)).plan(with_gap(slice(40, 48)), ROBOT)
+    assert 7.2 <= plan.goal[0] <= 8.2 and 3.9 <= plan.goal[1] <= 4.8
+
 def test_the_door_check_does_not_look_into_a_thick_wall():
     """The right wall is 0.4 m thick (x 8.0-8.3 m) and its inside (x 8.1-8.2 m) was never seen:
     unknown, open at the top onto the unknown space round the building, Λo high in it between
