@@ -66,6 +66,14 @@ def test_ends_without_a_wall_line_say_nothing():
     assert door(np.array([[5.0, 5.0]]), region(0.0, 2.1, 2.7))
 
 
+def test_a_region_partly_out_of_reach_of_every_hit_is_read():
+    """A frontier running 1.5 m off a wall along x = 0, its far points more than 1 m from every
+    hit: no crash (an empty neighbourhood once made the indices floats), and the wall runs
+    across it, not along it: no door."""
+    points = np.column_stack([np.linspace(-1.5, 0.0, 8), np.full(8, 1.5)])
+    assert not door(wall((0, 0), (0, 3)), points)
+
+
 def test_cells_holding_hits():
     """Hits round to their cells' centres; those off the grid are left out."""
     held = holding_hits(np.array([[0.04, 0.06], [0.26, 0.14], [5.0, 0.0], [-0.2, 0.0]]),
