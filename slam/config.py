@@ -80,7 +80,12 @@ class FrontEndConfig(_Config):
     registration: RegistrationConfig = RegistrationConfig()
     start_level: int = Field(2, ge=0, description="first KISS-ICP voxel level when tracking; past the last "
                                                    "level, only the point-to-line refinement runs (the "
-                                                   "prediction is good; the full schedule runs on a poor fit)")
+                                                   "prediction is good; the full schedule runs on a poor fit, "
+                                                   "and also where a pose within the wheels' χ²(3) gate at "
+                                                   "wheel_gate_probability moves a point at the scan's median "
+                                                   "range by more than this level's voxel, which is about what "
+                                                   "it corrects: a turn of tens of degrees; its match wins "
+                                                   "there only in another optimum explaining far more)")
     retry_inlier_fraction: float = Field(0.7, ge=0, le=1,
                                          description="below this, track again from the coarsest level")
     wheel_gate_probability: float = Field(0.999, gt=0, lt=1, description="a retried match beyond the χ²(3) "

@@ -53,6 +53,8 @@ class ScanOdometry:
         self._last_wheel: gtsam.Pose2 | None = None
         self._last_delta = gtsam.Pose2()
         self._keyframes: deque = deque(maxlen=self.config.submap_keyframes)
+        #: the recent matches' inlier fractions: what a match leaves unexplained here
+        self._recent_inliers: deque = deque(maxlen=self.config.submap_keyframes)
         self._submap: Submap | None = None
         self._grid: CorrelativeGrid | None = None     # the submap's, built when first needed
         #: how often tracking needed the correlative search, and how often it won
@@ -81,28 +83,55 @@ class ScanOdometry:
         wheel_information = np.linalg.inv(self.odometry_covariance(delta)) if wheels else np.zeros((3, 3))
         match = None
         if self._submap is not None and len(points) >= self.config.registration.min_points:
-            match = self._register(points, guess, (guess, wheel_information) if wheels else None)
+            reach = self.prediction_reach(points, delta) if wheels else 0.0
+            match = self._register(points, guess, (guess, wheel_information) if wheels else None, reach)
             if not match.information.any():          # nothing matched: no evidence from the scan
                 match = None
         if match is None:
             pose, information, novelty = guess, wheel_information, 1.0
         else:
             pose, information, novelty = match.pose, match.information, 1.0 - match.inlier_fraction
+            self._recent_inliers.append(match.inlier_fraction)
         self._last_delta = self.pose.between(pose)
         self.pose = pose
         self._last_wheel = wheel
         return Tracked(pose, information, match, novelty)
 
-    def _register(self, points: np.ndarray, guess: gtsam.Pose2, prior) -> Match:
-        """Fine levels first (the prediction is usually good). On a poor fit, the full
-        coarse-to-fine schedule, with and without the odometry prior and from the constant-velocity
-        prediction too (wheel odometry can stall or jump); if the fit is still poor, the correlative
-        search over metres and tens of degrees around the prediction, refined. Whichever explains
-        most points wins (``_explains_more``: one the wheels rule out must explain far more)."""
+    def prediction_reach(self, points: np.ndarray, delta: gtsam.Pose2) -> float:
+        """How far (m) a pose the wheels allow may put the scan's (m, 2) sensor-frame points from
+        where the wheels' prediction of ``delta`` puts them.
+
+        An error ξ = (δx, δy, δθ) of the pose moves a point p by (δx − δθ·p_y, δy + δθ·p_x). Over
+        the poses within the wheels' χ²(3) gate g (``wheel_gate_probability``) of their
+        covariance diag(σ_t², σ_t², σ_θ²), the largest such move of a point at range r is
+        √g·√(σ_t² + r²·σ_θ²); r is the scan's median range. A turn makes σ_θ large, and a
+        rotation error moves far points most.
+        """
+        sigma = np.sqrt(np.diag(self.odometry_covariance(delta)))
+        r = float(np.median(np.linalg.norm(points, axis=1)))
+        return float(np.sqrt(chi2.ppf(self.config.wheel_gate_probability, 3) * (sigma[0]**2 + (r * sigma[2])**2)))
+
+    def _start_capture(self) -> float:
+        """What the fine start can correct (m): about one voxel of its first KISS-ICP level, or the
+        point-to-line gate when it starts past the last level."""
+        c = self.config
+        sizes = c.registration.voxel_sizes
+        return sizes[c.start_level] if c.start_level < len(sizes) else c.registration.max_correspondence
+
+    def _register(self, points: np.ndarray, guess: gtsam.Pose2, prior, reach: float = 0.0) -> Match:
+        """Fine levels first (the prediction is usually good). On a good fit where the wheels allow
+        poses that move the scan's points by more than the fine levels correct (``reach``: a turn
+        of tens of degrees), the full coarse-to-fine schedule too (``_wide_start``): a fine start
+        can settle in another optimum that still explains most of the scan. On a poor fit, the
+        full coarse-to-fine schedule, with and without the odometry prior and from the
+        constant-velocity prediction too (wheel odometry can stall or jump); if the fit is still
+        poor, the correlative search over metres and tens of degrees around the prediction,
+        refined. Whichever explains most points wins (``_explains_more``: one the wheels rule out
+        must explain far more)."""
         c = self.config
         match = self.registration.register(points, self._submap, guess, prior, start_level=c.start_level)
         if match.inlier_fraction >= c.retry_inlier_fraction:
-            return match
+            return self._wide_start(points, guess, prior, reach, match)
         velocity = self.pose.compose(self._last_delta)
         for start, with_prior in ((guess, True), (guess, False), (velocity, False)):
             if with_prior and prior is None:
@@ -127,6 +156,44 @@ class ScanOdometry:
                     self.counts["correlative_matches"] += 1
                     match = other
         return match
+
+    def _wide_start(self, points: np.ndarray, guess: gtsam.Pose2, prior, reach: float, match: Match) -> Match:
+        """The full coarse-to-fine schedule from the wheels' prediction, with their prior, where the
+        fine start's ``match`` (a good fit) may have settled in the wrong optimum: the wheels allow
+        poses beyond what the fine start corrects (``reach`` > ``_start_capture``).
+
+        Its match replaces ``match`` only in another optimum (``_separation`` beyond the finest
+        voxel: nearer, the two are one optimum as the registration resolves it) that explains far
+        more (``explains_far_more``: what a match elsewhere than a plausible one must, leaving at
+        most half as many points unexplained). Against one in the same optimum, or explaining only
+        a few more points, ``match`` stands: such small differences add up to a drift (the
+        Infinite Corridor: a few tenths of a degree a turn). So the schedule runs only where
+        ``match`` leaves at least ``min_points`` unexplained, and twice the share the recent
+        matches leave (their median: about what the right match leaves here); elsewhere nothing
+        could explain far more.
+        """
+        c, n = self.config, len(points)
+        min_points = c.registration.min_points
+        unexplained = 1.0 - match.inlier_fraction
+        recent = 1.0 - float(np.median(self._recent_inliers)) if self._recent_inliers else 0.0
+        if (prior is None or c.start_level == 0 or reach <= self._start_capture()
+                or unexplained * n < min_points or unexplained < 2.0 * recent):
+            return match
+        self.counts["wide_starts"] += 1
+        other = self.registration.register(points, self._submap, guess, prior)
+        if (self._separation(points, match.pose, other.pose) > c.registration.voxel_sizes[-1]
+                and explains_far_more(other, match, n, min_points)):
+            self.counts["wide_start_wins"] += 1
+            return other
+        return match
+
+    @staticmethod
+    def _separation(points: np.ndarray, a: gtsam.Pose2, b: gtsam.Pose2) -> float:
+        """How far (m) pose ``b`` puts a point at the (m, 2) scan's median range r from where ``a``
+        puts it, at the farthest: |t| + r·|θ| of a⁻¹b."""
+        d = a.between(b)
+        r = float(np.median(np.linalg.norm(points, axis=1)))
+        return float(np.hypot(d.x(), d.y()) + r * abs(d.theta()))
 
     def _explains_more(self, other: Match, match: Match, prior, points: int) -> bool:
         """Does ``other`` explain more of the scan, of ``points`` points, than ``match``? A pose

@@ -1,0 +1,131 @@
+"""Scan odometry where the wheels' prediction is poor: a turn of tens of degrees."""
+
+import math
+
+import gtsam
+import numpy as np
+import pytest
+from scipy.stats import chi2
+
+from slam.front_end import ScanOdometry
+from slam.registration import Match, scan_normals
+from wall_scans import cast
+
+ROOM = [(0, 0.0, 0, 6), (0, 7.0, 0, 6), (1, 0.0, 0, 7), (1, 6.0, 0, 7), (0, 3.0, 2, 4), (1, 2.0, 3, 5)]
+
+
+def test_prediction_reach_is_the_farthest_a_gated_pose_moves_a_point_at_the_median_range():
+    """Over the poses on the wheels' χ²(3) gate, the largest move of a point at the scan's median
+    range is what ``prediction_reach`` says: sampled densely on the gate's ellipsoid."""
+    front = ScanOdometry()
+    delta = gtsam.Pose2(0.15, 0.02, math.radians(25))
+    points = cast(gtsam.Pose2(3.5, 2.5, 0.4), ROOM).points()
+    r = float(np.median(np.linalg.norm(points, axis=1)))
+    sigma = np.sqrt(np.diag(front.odometry_covariance(delta)))
+    gate = math.sqrt(chi2.ppf(front.config.wheel_gate_probability, 3))
+    rng = np.random.default_rng(0)
+    unit = rng.normal(size=(200000, 3))
+    errors = gate * sigma * unit / np.linalg.norm(unit, axis=1, keepdims=True)
+    largest = 0.0
+    for bearing in np.linspace(-math.pi, math.pi, 13):
+        p = r * np.array([math.cos(bearing), math.sin(bearing)])
+        moved = np.column_stack([errors[:, 0] - errors[:, 2] * p[1], errors[:, 1] + errors[:, 2] * p[0]])
+        largest = max(largest, float(np.linalg.norm(moved, axis=1).max()))
+    assert front.prediction_reach(points, delta) == pytest.approx(largest, rel=0.01)
+
+
+BIG_TURN = (gtsam.Pose2(3.5, 2.5, 0.4), gtsam.Pose2(3.6, 2.55, 0.4 + math.radians(25)))
+
+
+def off_by(pose: gtsam.Pose2, degrees: float) -> gtsam.Pose2:
+    return pose.compose(gtsam.Pose2(0.0, 0.0, math.radians(degrees)))
+
+
+@pytest.mark.parametrize("fine, wide, runs", [
+    # Belgioioso, scan 321 with 1 mm of range noise: the fine levels settled 3.5° off the truth
+    # explaining 0.742 of the scan, above the retry threshold; the full schedule found the truth.
+    ((3.5, 0.742), (0.0, 0.93), True),
+    # the same optimum (0.2° apart: a point at the median range moves less than the finest voxel)
+    # explaining far more: kept, as such small differences add up to a drift.
+    ((0.0, 0.90), (0.2, 0.99), True),
+    # another optimum explaining a few more points (as a slid match can, in a corridor): kept.
+    ((0.0, 0.80), (3.5, 0.85), True),
+    # the fine match leaves fewer than min_points unexplained: nothing can explain far more.
+    ((0.0, 0.96), (3.5, 1.0), False),
+])
+def test_a_big_turn_runs_the_full_schedule_too_and_keeps_only_another_optimum_explaining_far_more(
+        monkeypatch, fine, wide, runs):
+    """A 25° turn the wheels put 12° off: a rotation the wheels allow moves the scan's points by
+    more than the fine start's voxel, so the full coarse-to-fine schedule runs too where the fine
+    match leaves enough unexplained, and its match replaces the fine one only in another optimum
+    (beyond the finest voxel at the median range) explaining far more. The registration is a
+    stand-in that settles where given (degrees off the truth, inlier fraction): at the fine
+    levels (start_level on) and at the full schedule. Tracking ends at the truth each time."""
+    start, truth = BIG_TURN
+    front = ScanOdometry()
+    scan = cast(start, ROOM).points()
+    front.track(scan, start)
+    front.add_keyframe(front.pose, scan, scan_normals(scan, front.config.registration))
+    starts = []
+
+    def register(points, submap, guess, prior=None, start_level=0):
+        starts.append(start_level)
+        degrees, inliers = fine if start_level >= front.config.start_level else wide
+        return Match(off_by(truth, degrees), np.eye(3), inliers, np.zeros((0, 3)), 0.01)
+
+    monkeypatch.setattr(front.registration, "register", register)
+    wheel = start.compose(gtsam.Pose2(0.1, 0.0, math.radians(13)))          # the truth turned 25°
+    tracked = front.track(cast(truth, ROOM).points(), wheel)
+    assert starts == ([front.config.start_level, 0] if runs else [front.config.start_level])
+    assert tracked.pose.equals(truth, 1e-9)
+
+
+def test_a_small_turn_runs_the_fine_levels_alone(monkeypatch):
+    """The wheels' prediction of a 2 cm step keeps every pose they allow within a voxel of the
+    fine start: a fine match explaining 0.742 of the scan (above the retry threshold) stands."""
+    start = BIG_TURN[0]
+    front = ScanOdometry()
+    scan = cast(start, ROOM).points()
+    front.track(scan, start)
+    front.add_keyframe(front.pose, scan, scan_normals(scan, front.config.registration))
+    near = start.compose(gtsam.Pose2(0.02, 0.0, 0.0))
+    starts = []
+
+    def register(points, submap, guess, prior=None, start_level=0):
+        starts.append(start_level)
+        return Match(near, np.eye(3), 0.742, np.zeros((0, 3)), 0.01)
+
+    monkeypatch.setattr(front.registration, "register", register)
+    front.track(cast(near, ROOM).points(), near)
+    assert starts == [front.config.start_level]
+
+
+@pytest.mark.parametrize("recent, runs", [(0.97, True), (0.80, False)])
+def test_the_full_schedule_runs_only_where_a_match_could_explain_far_more_than_the_recent_ones(
+        monkeypatch, recent, runs):
+    """The big turn's fine match leaves 0.25 of the scan unexplained. Where the recent matches
+    left 0.03 (about what the right match leaves here), the full schedule could halve that, and
+    runs (and finds the truth); where they left 0.20, no match could (explains_far_more wants at
+    most 0.125), and it does not run."""
+    start, truth = BIG_TURN
+    front = ScanOdometry()
+    scan = cast(start, ROOM).points()
+    front.track(scan, start)
+    front.add_keyframe(front.pose, scan, scan_normals(scan, front.config.registration))
+    starts = []
+    outcome = {"fine": (start, recent), "wide": (start, recent)}
+
+    def register(points, submap, guess, prior=None, start_level=0):
+        starts.append(start_level)
+        pose, inliers = outcome["fine" if start_level >= front.config.start_level else "wide"]
+        return Match(pose, np.eye(3), inliers, np.zeros((0, 3)), 0.01)
+
+    monkeypatch.setattr(front.registration, "register", register)
+    for _ in range(front.config.submap_keyframes):                        # standing still
+        front.track(scan, start)
+    starts.clear()
+    outcome.update(fine=(off_by(truth, 3.5), 0.75), wide=(truth, 0.97))
+    tracked = front.track(cast(truth, ROOM).points(), start.compose(gtsam.Pose2(0.1, 0.0, math.radians(13))))
+    assert starts == ([front.config.start_level, 0] if runs else [front.config.start_level])
+    if runs:
+        assert tracked.pose.equals(truth, 1e-9)
