@@ -37,6 +37,16 @@ def test_prediction_reach_is_the_farthest_a_gated_pose_moves_a_point_at_the_medi
 BIG_TURN = (gtsam.Pose2(3.5, 2.5, 0.4), gtsam.Pose2(3.6, 2.55, 0.4 + math.radians(25)))
 
 
+def tracking_from(start: gtsam.Pose2) -> tuple[ScanOdometry, np.ndarray]:
+    """A front end that has tracked the room's scan at ``start`` and made it its one keyframe,
+    and that scan."""
+    front = ScanOdometry()
+    scan = cast(start, ROOM).points()
+    front.track(scan, start)
+    front.add_keyframe(front.pose, scan, scan_normals(scan, front.config.registration))
+    return front, scan
+
+
 def off_by(pose: gtsam.Pose2, degrees: float) -> gtsam.Pose2:
     return pose.compose(gtsam.Pose2(0.0, 0.0, math.radians(degrees)))
 
@@ -62,10 +72,7 @@ def test_a_big_turn_runs_the_full_schedule_too_and_keeps_only_another_optimum_ex
     stand-in that settles where given (degrees off the truth, inlier fraction): at the fine
     levels (start_level on) and at the full schedule. Tracking ends at the truth each time."""
     start, truth = BIG_TURN
-    front = ScanOdometry()
-    scan = cast(start, ROOM).points()
-    front.track(scan, start)
-    front.add_keyframe(front.pose, scan, scan_normals(scan, front.config.registration))
+    front, _ = tracking_from(start)
     starts = []
 
     def register(points, submap, guess, prior=None, start_level=0):
@@ -84,10 +91,7 @@ def test_a_small_turn_runs_the_fine_levels_alone(monkeypatch):
     """The wheels' prediction of a 2 cm step keeps every pose they allow within a voxel of the
     fine start: a fine match explaining 0.742 of the scan (above the retry threshold) stands."""
     start = BIG_TURN[0]
-    front = ScanOdometry()
-    scan = cast(start, ROOM).points()
-    front.track(scan, start)
-    front.add_keyframe(front.pose, scan, scan_normals(scan, front.config.registration))
+    front, _ = tracking_from(start)
     near = start.compose(gtsam.Pose2(0.02, 0.0, 0.0))
     starts = []
 
@@ -108,10 +112,7 @@ def test_the_full_schedule_runs_only_where_a_match_could_explain_far_more_than_t
     runs (and finds the truth); where they left 0.20, no match could (explains_far_more wants at
     most 0.125), and it does not run."""
     start, truth = BIG_TURN
-    front = ScanOdometry()
-    scan = cast(start, ROOM).points()
-    front.track(scan, start)
-    front.add_keyframe(front.pose, scan, scan_normals(scan, front.config.registration))
+    front, scan = tracking_from(start)
     starts = []
     outcome = {"fine": (start, recent), "wide": (start, recent)}
 
