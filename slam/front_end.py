@@ -130,17 +130,20 @@ class ScanOdometry:
         must explain far more)."""
         c = self.config
         match = self.registration.register(points, self._submap, guess, prior, start_level=c.start_level)
-        if match.inlier_fraction >= c.retry_inlier_fraction:
+        unsure = prior is None and self._fits_worse_than_recent(match, len(points))
+        if match.inlier_fraction >= c.retry_inlier_fraction and not unsure:
             return self._wide_start(points, guess, prior, reach, match)
         velocity = self.pose.compose(self._last_delta)
-        for start, with_prior in ((guess, True), (guess, False), (velocity, False)):
+        starts = [(guess, True), (guess, False), (velocity, False)]
+        if prior is None:
+            starts.append((self.pose, False))
+        for start, with_prior in starts:
             if with_prior and prior is None:
                 continue
             other = self.registration.register(points, self._submap, start, prior if with_prior else None)
             if self._explains_more(other, match, prior, len(points)):
                 match = other
-        if match.inlier_fraction < c.retry_inlier_fraction:
-            self.counts["correlative_searches"] += 1
+        if match.inlier_fraction < c.retry_inlier_fraction or unsure:
             window = c.correlative
             if prior is not None:                  # the wheels bound where the scan can be
                 sigma = 3.0 / np.sqrt(np.diag(prior[1]))
@@ -148,13 +151,16 @@ class ScanOdometry:
                     "window_xy": float(min(max(sigma[:2].max(), c.correlative_min_window[0]), window.window_xy)),
                     "window_deg": float(min(max(np.degrees(sigma[2]), c.correlative_min_window[1]),
                                             window.window_deg))})
-            found = correlative_match(self._correlative_grid(), points, guess, window)
-            if found is not None:
-                fine = len(c.registration.voxel_sizes) - 1
-                other = self.registration.register(points, self._submap, found.pose, start_level=fine)
-                if self._explains_more(other, match, prior, len(points)):
-                    self.counts["correlative_matches"] += 1
-                    match = other
+            centres = [guess] if prior is not None else [guess, self.pose]
+            for centre in centres:
+                self.counts["correlative_searches"] += 1
+                found = correlative_match(self._correlative_grid(), points, centre, window)
+                if found is not None:
+                    fine = len(c.registration.voxel_sizes) - 1
+                    other = self.registration.register(points, self._submap, found.pose, start_level=fine)
+                    if self._explains_more(other, match, prior, len(points)):
+                        self.counts["correlative_matches"] += 1
+                        match = other
         return match
 
     def _wide_start(self, points: np.ndarray, guess: gtsam.Pose2, prior, reach: float, match: Match) -> Match:
@@ -174,10 +180,8 @@ class ScanOdometry:
         """
         c, n = self.config, len(points)
         min_points = c.registration.min_points
-        unexplained = 1.0 - match.inlier_fraction
-        recent = 1.0 - float(np.median(self._recent_inliers)) if self._recent_inliers else 0.0
         if (prior is None or c.start_level == 0 or reach <= self._start_capture()
-                or unexplained * n < min_points or unexplained < 2.0 * recent):
+                or not self._fits_worse_than_recent(match, n)):
             return match
         self.counts["wide_starts"] += 1
         other = self.registration.register(points, self._submap, guess, prior)
@@ -186,6 +190,14 @@ class ScanOdometry:
             self.counts["wide_start_wins"] += 1
             return other
         return match
+
+    def _fits_worse_than_recent(self, match: Match, n: int) -> bool:
+        """Does ``match`` leave at least ``min_points`` of the scan's ``n`` points unexplained, and
+        twice the share the recent matches leave (their median: about what the right match
+        leaves here)? Elsewhere no other match could explain far more."""
+        unexplained = 1.0 - match.inlier_fraction
+        recent = 1.0 - float(np.median(self._recent_inliers)) if self._recent_inliers else 0.0
+        return unexplained * n >= self.config.registration.min_points and unexplained >= 2.0 * recent
 
     @staticmethod
     def _separation(points: np.ndarray, a: gtsam.Pose2, b: gtsam.Pose2) -> float:
