@@ -127,20 +127,23 @@ class ScanOdometry:
         constant-velocity prediction too (wheel odometry can stall or jump); if the fit is still
         poor, the correlative search over metres and tens of degrees around the prediction,
         refined. Whichever explains most points wins (``_explains_more``: one the wheels rule out
-        must explain far more)."""
+        must explain far more).
+
+        Without wheels the prediction is constant velocity, which nothing vouches for: a robot
+        that stops and turns in place (Örebro's log, metres and tens of degrees between scans) is
+        not where it predicts. A fit worse than the recent ones (``_fits_worse_than_recent``) is
+        then searched as a poor fit is, and every search also starts from zero motion."""
         c = self.config
         match = self.registration.register(points, self._submap, guess, prior, start_level=c.start_level)
         unsure = prior is None and self._fits_worse_than_recent(match, len(points))
         if match.inlier_fraction >= c.retry_inlier_fraction and not unsure:
             return self._wide_start(points, guess, prior, reach, match)
-        velocity = self.pose.compose(self._last_delta)
-        starts = [(guess, True), (guess, False), (velocity, False)]
-        if prior is None:
-            starts.append((self.pose, False))
-        for start, with_prior in starts:
-            if with_prior and prior is None:
-                continue
-            other = self.registration.register(points, self._submap, start, prior if with_prior else None)
+        if prior is not None:
+            starts = [(guess, prior), (guess, None), (self.pose.compose(self._last_delta), None)]
+        else:                                      # constant velocity, and zero motion
+            starts = [(guess, None), (self.pose, None)]
+        for start, start_prior in starts:
+            other = self.registration.register(points, self._submap, start, start_prior)
             if self._explains_more(other, match, prior, len(points)):
                 match = other
         if match.inlier_fraction < c.retry_inlier_fraction or unsure:
@@ -151,8 +154,7 @@ class ScanOdometry:
                     "window_xy": float(min(max(sigma[:2].max(), c.correlative_min_window[0]), window.window_xy)),
                     "window_deg": float(min(max(np.degrees(sigma[2]), c.correlative_min_window[1]),
                                             window.window_deg))})
-            centres = [guess] if prior is not None else [guess, self.pose]
-            for centre in centres:
+            for centre in [guess] if prior is not None else [guess, self.pose]:
                 self.counts["correlative_searches"] += 1
                 found = correlative_match(self._correlative_grid(), points, centre, window)
                 if found is not None:
@@ -174,8 +176,7 @@ class ScanOdometry:
         most half as many points unexplained). Against one in the same optimum, or explaining only
         a few more points, ``match`` stands: such small differences add up to a drift (the
         Infinite Corridor: a few tenths of a degree a turn). So the schedule runs only where
-        ``match`` leaves at least ``min_points`` unexplained, and twice the share the recent
-        matches leave (their median: about what the right match leaves here); elsewhere nothing
+        ``match`` fits worse than the recent ones (``_fits_worse_than_recent``): elsewhere nothing
         could explain far more.
         """
         c, n = self.config, len(points)

@@ -130,3 +130,38 @@ def test_the_full_schedule_runs_only_where_a_match_could_explain_far_more_than_t
     assert starts == ([front.config.start_level, 0] if runs else [front.config.start_level])
     if runs:
         assert tracked.pose.equals(truth, 1e-9)
+
+
+def test_without_wheels_a_turn_in_place_after_a_drive_is_tracked_from_zero_motion():
+    """Without wheel odometry the prediction is constant velocity: after a 1 m drive that turned
+    40° left, a 40° turn right in place is predicted 1 m ahead and 80° off, beyond the search
+    window around the prediction (± 60°). The search runs from zero motion too (stop-and-go, as
+    a robot that drives and turns in place: Örebro's log), and finds the truth."""
+    start = gtsam.Pose2(2.0, 1.5, 0.3)
+    front, _ = tracking_from(start)
+    drive = start.compose(gtsam.Pose2(1.0, 0.0, math.radians(40)))
+    front.track(cast(drive, ROOM).points(), None)
+    turn = drive.compose(gtsam.Pose2(0.0, 0.0, math.radians(-40)))
+    tracked = front.track(cast(turn, ROOM).points(), None)
+    error = tracked.pose.between(turn)
+    assert math.hypot(error.x(), error.y()) < 0.02 and abs(error.theta()) < math.radians(0.5)
+
+
+def test_without_wheels_a_fit_poorer_than_the_recent_ones_is_searched_again(monkeypatch):
+    """Without wheels nothing vouches for the prediction: a fine match explaining 0.75 of the
+    scan (above the retry threshold) where the recent matches explained 0.97 is searched again,
+    as a poor fit is, and the match explaining more wins. The registration is a stand-in that
+    settles where given: off the truth at the fine levels, at the truth at the full schedule."""
+    start, truth = BIG_TURN
+    front, scan = tracking_from(start)
+    outcome = {"fine": (start, 0.97), "wide": (start, 0.97)}
+
+    def register(points, submap, guess, prior=None, start_level=0):
+        pose, inliers = outcome["fine" if start_level >= front.config.start_level else "wide"]
+        return Match(pose, np.eye(3), inliers, np.zeros((0, 3)), 0.01)
+
+    monkeypatch.setattr(front.registration, "register", register)
+    for _ in range(front.config.submap_keyframes):                        # standing still
+        front.track(scan, None)
+    outcome.update(fine=(off_by(truth, 3.5), 0.75), wide=(truth, 0.97))
+    assert front.track(cast(truth, ROOM).points(), None).pose.equals(truth, 1e-9)
