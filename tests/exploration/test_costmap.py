@@ -146,6 +146,30 @@ def test_distance_to_points_is_the_nearest_point_s_distance_within_the_bound(bou
     assert np.isinf(distance_to_points(np.zeros((0, 2)), origin, res, shape, bound)).all()
 
 
+def test_distance_to_points_of_hits_that_grow_then_move_is_the_brute_force_one():
+    """A map's hits grow by each update's, and move at a rebuild: each call, on the same grid
+    and bound, equals the brute-force minimum over the points it is given (what earlier calls
+    scattered is reused only where it is the start of them)."""
+    rng = np.random.default_rng(4)
+    origin, res, shape, bound = np.array([0.0, 0.0]), 0.1, (30, 40), 0.6
+    yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
+    centres = origin + res * np.stack([xx, yy], axis=-1)
+
+    def brute(points):
+        d = np.linalg.norm(centres[:, :, None] - points[None, None], axis=3).min(axis=2)
+        return np.where(d < bound, d, np.inf)
+
+    points = rng.uniform([0.0, 0.0], [4.0, 3.0], (50, 2))
+    for step in range(4):
+        if step == 2:                                   # a rebuild: every hit moved
+            points = points + [0.13, -0.07]
+        else:
+            points = np.vstack([points, rng.uniform([0.0, 0.0], [4.0, 3.0], (30, 2))])
+        assert np.allclose(distance_to_points(points, origin, res, shape, bound), brute(points), rtol=0, atol=1e-12)
+    fewer = points[:40]                                  # a shorter map (another run's)
+    assert np.allclose(distance_to_points(fewer, origin, res, shape, bound), brute(fewer), rtol=0, atol=1e-12)
+
+
 def test_clearest_points_climb_to_the_point_farthest_from_the_hits():
     """Cells of a 0.56 m passage between two walls of noisy hits, and cells in the open: the
     point found lies in its cell, its clearance is its brute-force distance to the nearest hit
