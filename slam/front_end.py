@@ -135,6 +135,11 @@ class ScanOdometry:
         then searched as a poor fit is, and every search also starts from zero motion."""
         c = self.config
         match = self.registration.register(points, self._submap, guess, prior, start_level=c.start_level)
+        if (prior is not None and match.inlier_fraction * len(points) < c.registration.min_points
+                and not self._gated(match.pose, prior)):
+            # wandered off the wheels' prediction on fewer points than a match may rest on
+            match = self.registration.register(points, self._submap, guess, prior,
+                                               start_level=len(c.registration.voxel_sizes))
         unsure = prior is None and self._fits_worse_than_recent(match, len(points))
         if match.inlier_fraction >= c.retry_inlier_fraction and not unsure:
             return self._wide_start(points, guess, prior, reach, match)
@@ -214,12 +219,15 @@ class ScanOdometry:
         far more (``explains_far_more``): a wheel slip leaves most of the scan unexplained."""
         if other.inlier_fraction <= match.inlier_fraction + 0.02:
             return False
-        if prior is None:
-            return True
-        error = prior[0].localCoordinates(other.pose)
-        if error @ prior[1] @ error <= chi2.ppf(self.config.wheel_gate_probability, 3):
+        if prior is None or self._gated(other.pose, prior):
             return True
         return explains_far_more(other, match, points, self.config.registration.min_points)
+
+    def _gated(self, pose: gtsam.Pose2, prior) -> bool:
+        """Is ``pose`` within the wheels' χ²(3) gate (``wheel_gate_probability``) of their
+        ``prior`` (prediction, information)?"""
+        error = prior[0].localCoordinates(pose)
+        return bool(error @ prior[1] @ error <= chi2.ppf(self.config.wheel_gate_probability, 3))
 
     def _correlative_grid(self) -> CorrelativeGrid:
         if self._grid is None:
