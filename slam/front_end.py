@@ -129,6 +129,12 @@ class ScanOdometry:
         refined. Whichever explains most points wins (``_explains_more``: one the wheels rule out
         must explain far more).
 
+        The fine levels' point-to-point steps run without the wheels' prior: on a scan of
+        new ground they can wander off it (office_g, turning into a big room: 52° off a 9° turn,
+        on 15 of 27 points). A fine match beyond the wheels' gate that explains fewer points
+        than a match may rest on (``min_points``) gives way to point-to-line refinement from
+        their prediction, with their prior.
+
         Without wheels the prediction is constant velocity, which nothing vouches for: a robot
         that stops and turns in place (Örebro's log, metres and tens of degrees between scans) is
         not where it predicts. A fit worse than the recent ones (``_fits_worse_than_recent``) is
