@@ -95,9 +95,14 @@ class CorrelativeGrid:
 
     @classmethod
     def from_scans(cls, poses: list[gtsam.Pose2], points: list[np.ndarray],
-                   config: CorrelativeConfig | None = None) -> "CorrelativeGrid":
-        """Scans ((m_i, 2) sensor-frame points) placed at ``poses`` in the grid's frame."""
-        return cls(np.concatenate([transform(p, q) for p, q in zip(poses, points)]), config)
+                   config: CorrelativeConfig | None = None) -> "CorrelativeGrid | None":
+        """Scans ((m_i, 2) sensor-frame points) placed at ``poses`` in the grid's frame; None
+        when they hold no finite point (a robot crossing a room wider than the laser's range
+        sees nothing: office_g's keyframes did so ten in a row)."""
+        placed = np.concatenate([transform(p, np.asarray(q, float).reshape(-1, 2)) for p, q in zip(poses, points)])
+        if not np.isfinite(placed).all(axis=1).any():
+            return None
+        return cls(placed, config)
 
     @property
     def shape(self) -> tuple[int, int]:

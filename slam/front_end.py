@@ -165,9 +165,11 @@ class ScanOdometry:
                     "window_xy": float(min(max(sigma[:2].max(), c.correlative_min_window[0]), window.window_xy)),
                     "window_deg": float(min(max(np.degrees(sigma[2]), c.correlative_min_window[1]),
                                             window.window_deg))})
-            for centre in [guess] if prior is not None else [guess, self.pose]:
+            centres = [guess] if prior is not None else [guess, self.pose]
+            grid = self._correlative_grid()
+            for centre in centres if grid is not None else []:
                 self.counts["correlative_searches"] += 1
-                found = correlative_match(self._correlative_grid(), points, centre, window)
+                found = correlative_match(grid, points, centre, window)
                 if found is not None:
                     fine = len(c.registration.voxel_sizes) - 1
                     other = self.registration.register(points, self._submap, found.pose, start_level=fine)
@@ -235,7 +237,9 @@ class ScanOdometry:
         error = prior[0].localCoordinates(pose)
         return bool(error @ prior[1] @ error <= chi2.ppf(self.config.wheel_gate_probability, 3))
 
-    def _correlative_grid(self) -> CorrelativeGrid:
+    def _correlative_grid(self) -> CorrelativeGrid | None:
+        """The submap's correlative grid, built when first needed; None when its keyframes
+        hold no point."""
         if self._grid is None:
             poses, points, _ = zip(*self._keyframes)
             self._grid = CorrelativeGrid.from_scans(list(poses), list(points), self.config.correlative)

@@ -182,8 +182,8 @@ class LoopClosureDetector:
         window = c.correlative.model_copy(update={
             "window_xy": float(min(max(sigma[:2].max(), floor[:2].max()), c.correlative.window_xy)),
             "window_deg": float(min(np.degrees(max(sigma[2], floor[2])), c.correlative.window_deg))})
-        found = correlative_match(CorrelativeGrid.from_scans(poses, clouds, window), points,
-                                  candidate.predicted, window)
+        grid = CorrelativeGrid.from_scans(poses, clouds, window)
+        found = None if grid is None else correlative_match(grid, points, candidate.predicted, window)
         if found is None:
             return None
         fine = len(self.registration.config.voxel_sizes) - 1

@@ -190,3 +190,12 @@ def test_config_mismatch_is_named():
     with pytest.raises(ValueError, match="resolution = 0.1 but the grid was built with resolution = 0.05"):
         match(grid, np.ones((30, 2)), gtsam.Pose2(), CorrelativeConfig(resolution=0.1))
     assert match(grid, np.ones((5, 2)), gtsam.Pose2()) is None        # fewer than min_points
+
+
+def test_scans_that_hold_no_point_make_no_grid():
+    """Keyframes that saw nothing (a room wider than the laser's range) give no grid to search,
+    for the front end and for loop closing alike, rather than an error."""
+    assert CorrelativeGrid.from_scans([gtsam.Pose2(), gtsam.Pose2(1.0, 0.0, 0.0)],
+                                      [np.zeros((0, 2)), np.zeros((0, 2))]) is None
+    grid = CorrelativeGrid.from_scans([gtsam.Pose2(1.0, 0.0, 0.0)], [np.array([[1.0, 0.5]])])
+    assert grid is not None and grid.likelihood.max() == 1.0

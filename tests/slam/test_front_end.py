@@ -187,3 +187,16 @@ def test_a_fine_match_the_wheels_rule_out_on_fewer_points_than_a_match_rests_on_
     monkeypatch.setattr(front.registration, "register", register)
     tracked = front.track(cast(truth, ROOM).points()[:27], truth)
     assert tracked.pose.equals(truth, 1e-9)
+
+
+def test_a_submap_of_keyframes_that_saw_nothing_is_tracked_on_the_wheels():
+    """office_g: crossing a room wider than the laser's range, ten keyframes in a row held no
+    point, and the correlative search of a poor fit had no grid to build (a ValueError ended
+    the run). Now the scan is tracked on the wheels' prediction."""
+    front = ScanOdometry()
+    start = gtsam.Pose2(3.5, 2.5, 0.4)
+    front.track(np.zeros((0, 2)), start)
+    front.add_keyframe(front.pose, np.zeros((0, 2)), np.zeros((0, 2)))
+    ahead = start.compose(gtsam.Pose2(0.1, 0.0, 0.0))
+    tracked = front.track(cast(ahead, ROOM).points(), ahead)
+    assert tracked.novelty == 1.0 and tracked.pose.equals(ahead, 1e-6)
