@@ -99,7 +99,8 @@ class CorrelativeGrid:
         """Scans ((m_i, 2) sensor-frame points) placed at ``poses`` in the grid's frame; None
         when they hold no finite point (a robot crossing a room wider than the laser's range
         sees nothing: office_g's keyframes did so ten in a row)."""
-        placed = np.concatenate([transform(p, np.asarray(q, float).reshape(-1, 2)) for p, q in zip(poses, points)])
+        placed = np.concatenate([transform(p, np.asarray(q, float).reshape(-1, 2))
+                                 for p, q in zip(poses, points)])
         if not np.isfinite(placed).all(axis=1).any():
             return None
         return cls(placed, config)

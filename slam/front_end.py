@@ -1,5 +1,6 @@
 """Scan-matching odometry: each scan is registered to a submap of the recent keyframes, starting
-from the wheel odometry's prediction (or a constant-velocity one when there is no odometry)."""
+from the wheel odometry's prediction (or, when there is no odometry, from a constant-velocity one
+and from zero motion)."""
 
 from __future__ import annotations
 
