@@ -84,8 +84,7 @@ class ScanOdometry:
         wheel_information = np.linalg.inv(self.odometry_covariance(delta)) if wheels else np.zeros((3, 3))
         match = None
         if self._submap is not None and len(points) >= self.config.registration.min_points:
-            reach = self.prediction_reach(points, delta) if wheels else 0.0
-            match = self._register(points, guess, (guess, wheel_information) if wheels else None, reach)
+            match = self._register(points, guess, (guess, wheel_information) if wheels else None, delta)
             if not match.information.any():          # nothing matched: no evidence from the scan
                 match = None
         if match is None:
@@ -109,7 +108,7 @@ class ScanOdometry:
         rotation error moves far points most.
         """
         sigma = np.sqrt(np.diag(self.odometry_covariance(delta)))
-        r = float(np.median(np.linalg.norm(points, axis=1)))
+        r = _median_range(points)
         return float(np.sqrt(chi2.ppf(self.config.wheel_gate_probability, 3) * (sigma[0]**2 + (r * sigma[2])**2)))
 
     def _start_capture(self) -> float:
@@ -119,10 +118,11 @@ class ScanOdometry:
         sizes = c.registration.voxel_sizes
         return sizes[c.start_level] if c.start_level < len(sizes) else c.registration.max_correspondence
 
-    def _register(self, points: np.ndarray, guess: gtsam.Pose2, prior, reach: float = 0.0) -> Match:
+    def _register(self, points: np.ndarray, guess: gtsam.Pose2, prior, delta: gtsam.Pose2) -> Match:
         """Fine levels first (the prediction is usually good). On a good fit where the wheels allow
-        poses that move the scan's points by more than the fine levels correct (``reach``: a turn
-        of tens of degrees), the full coarse-to-fine schedule too (``_wide_start``): a fine start
+        poses that move the scan's points by more than the fine levels correct (their predicted
+        motion ``delta``'s ``prediction_reach``: a turn of tens of degrees), the full
+        coarse-to-fine schedule too (``_wide_start``): a fine start
         can settle in another optimum that still explains most of the scan. On a poor fit, the
         full coarse-to-fine schedule, with and without the odometry prior and from the
         constant-velocity prediction too (wheel odometry can stall or jump); if the fit is still
@@ -149,7 +149,7 @@ class ScanOdometry:
                                                start_level=len(c.registration.voxel_sizes))
         unsure = prior is None and self._fits_worse_than_recent(match, len(points))
         if match.inlier_fraction >= c.retry_inlier_fraction and not unsure:
-            return self._wide_start(points, guess, prior, reach, match)
+            return self._wide_start(points, guess, prior, delta, match)
         if prior is not None:
             starts = [(guess, prior), (guess, None), (self.pose.compose(self._last_delta), None)]
         else:                                      # constant velocity, and zero motion
@@ -179,10 +179,12 @@ class ScanOdometry:
                         match = other
         return match
 
-    def _wide_start(self, points: np.ndarray, guess: gtsam.Pose2, prior, reach: float, match: Match) -> Match:
+    def _wide_start(self, points: np.ndarray, guess: gtsam.Pose2, prior, delta: gtsam.Pose2,
+                    match: Match) -> Match:
         """The full coarse-to-fine schedule from the wheels' prediction, with their prior, where the
         fine start's ``match`` (a good fit) may have settled in the wrong optimum: the wheels allow
-        poses beyond what the fine start corrects (``reach`` > ``_start_capture``).
+        poses beyond what the fine start corrects (``prediction_reach`` of their predicted motion
+        ``delta`` > ``_start_capture``).
 
         Its match replaces ``match`` only in another optimum (``_separation`` beyond the finest
         voxel: nearer, the two are one optimum as the registration resolves it) that explains far
@@ -195,8 +197,8 @@ class ScanOdometry:
         """
         c, n = self.config, len(points)
         min_points = c.registration.min_points
-        if (prior is None or c.start_level == 0 or reach <= self._start_capture()
-                or not self._fits_worse_than_recent(match, n)):
+        if (prior is None or c.start_level == 0 or not self._fits_worse_than_recent(match, n)
+                or self.prediction_reach(points, delta) <= self._start_capture()):
             return match
         self.counts["wide_starts"] += 1
         other = self.registration.register(points, self._submap, guess, prior)
@@ -219,8 +221,7 @@ class ScanOdometry:
         """How far (m) pose ``b`` puts a point at the (m, 2) scan's median range r from where ``a``
         puts it, at the farthest: |t| + r·|θ| of a⁻¹b."""
         d = a.between(b)
-        r = float(np.median(np.linalg.norm(points, axis=1)))
-        return float(np.hypot(d.x(), d.y()) + r * abs(d.theta()))
+        return float(np.hypot(d.x(), d.y()) + _median_range(points) * abs(d.theta()))
 
     def _explains_more(self, other: Match, match: Match, prior, points: int) -> bool:
         """Does ``other`` explain more of the scan, of ``points`` points, than ``match``? A pose
@@ -252,3 +253,8 @@ class ScanOdometry:
         poses, pts, nrm = zip(*self._keyframes)
         self._submap = Submap.from_scans(list(poses), list(pts), list(nrm), self.config.registration)
         self._grid = None
+
+
+def _median_range(points: np.ndarray) -> float:
+    """The median distance (m) of a scan's (m, 2) sensor-frame points from the sensor."""
+    return float(np.median(np.linalg.norm(points, axis=1)))

@@ -168,7 +168,8 @@ def test_distance_to_points_of_hits_that_grow_then_move_is_the_brute_force_one()
         assert np.allclose(distance_to_points(points, origin, res, shape, bound), brute(points),
                            rtol=0, atol=1e-12)
     fewer = points[:40]                                  # a shorter map (another run's)
-    assert np.allclose(distance_to_points(fewer, origin, res, shape, bound), brute(fewer), rtol=0, atol=1e-12)
+    assert np.allclose(distance_to_points(fewer, origin, res, shape, bound), brute(fewer),
+                       rtol=0, atol=1e-12)
 
 
 def test_clearest_points_climb_to_the_point_farthest_from_the_hits():

@@ -557,6 +557,7 @@ def test_the_unseen_end_of_a_face_at_a_corner_is_no_door(method):
     plan = Explorer(ExplorerConfig(method=method)).plan(with_gap(slice(40, 48)), ROBOT)
     assert 7.2 <= plan.goal[0] <= 8.2 and 3.9 <= plan.goal[1] <= 4.8
 
+
 def test_the_door_check_does_not_look_into_a_thick_wall():
     """The right wall is 0.4 m thick (x 8.0-8.3 m) and its inside (x 8.1-8.2 m) was never seen:
     unknown, open at the top onto the unknown space round the building, Λo high in it between
