@@ -59,6 +59,15 @@ def test_a_door_beside_a_corner_is_a_door():
     assert door(hits, np.array([0.05, 2.5]) + t * np.array([0.7, -0.45]))
 
 
+def test_a_door_through_a_thick_wall_whose_jambs_were_seen_is_a_door():
+    """A wall along x = 0 to 0.2 m, 0.8 m gap (y 2.0-2.8 m) with the jambs' faces across the
+    wall seen along y = 2.0 and y = 2.8: within 0.5 m of the frontier's ends those faces tilt
+    the line of the hits off the wall, which runs on either side of the gap."""
+    hits = np.vstack([wall((0, 0), (0, 2.0)), wall((0, 2.8), (0, 5)),
+                      wall((0, 2.0), (0.2, 2.0)), wall((0, 2.8), (0.2, 2.8))])
+    assert door(hits, region(0.1, 2.1, 2.7))
+
+
 def test_ends_without_a_wall_line_say_nothing():
     """Two hits by one end (fewer than three) and none by the other, or no hit anywhere
     near: a door."""
