@@ -30,18 +30,19 @@ def in_a_wall_gap(points: np.ndarray, hits: cKDTree, reach: float, tolerance: fl
     """Does the region ``points`` (k, 2), meters, lie in a gap of a wall's line? The line is
     the principal direction, through their mean, of the hits within ``reach`` m of one of the
     region's ends, or the line that most of those within ``2 * reach`` m hold (``wall_line``,
-    a band ``tolerance`` m wide): by a jamb at a corner, the hits within ``reach`` mix the
-    wall's face with the jamb's and the face across, and their line tilts off the wall (lab_a:
-    by 7.5 and 11.5 degrees, leaving within 0.2 m of a 0.6 m door a wall that runs on for
-    metres; the longer line tilts by 1.0 and 0.3 degrees). The region's span on it must be at least ``side`` m long (a region across
-    the line is not in it); the hits within ``tolerance`` m of the line, out to ``2 * reach``
-    m of the region, must run along it for at least ``side`` m either side of that span (a
-    face across the line is no wall along it), and none lie within it (farther than
-    ``tolerance`` from its ends). A door seen edge-on lies so, or its frontier runs off into
-    the room past it; the unseen stretch of a block's face that ends in a concave corner has
-    the face across it under its end, and a step between two offset faces has each face on
-    one side only. An end with fewer than three hits near it, or hits in no line, says
-    nothing; with nothing said at either end, the region is taken for a door."""
+    a band ``tolerance`` m wide): by a door's end, the hits within ``reach`` mix the wall's
+    face with the jamb's across it, and their line tilts off the wall (lab_a: by 7.5 and 11.5
+    degrees, leaving within 0.2 m of a 0.6 m door a wall that runs on for metres; the longer
+    line tilts by 1.0 and 0.3 degrees). The region's span on it must be at least ``side`` m
+    long (a region across the line is not in it); the hits within ``tolerance`` m of the line,
+    out to ``2 * reach`` m of the region, must run along it for at least ``side`` m either side
+    of that span (a face across the line is no wall along it), and none lie within it
+    (farther than ``tolerance`` from its ends). A door seen edge-on lies so, or its frontier
+    runs off into the room past it; the unseen stretch of a block's face that ends in a
+    concave corner has the face across it under its end, and a step between two offset faces
+    has each face on one side only. An end with fewer than three hits within ``reach``, or
+    those in no line, says nothing; with nothing said at either end, the region is taken for
+    a door."""
     axis = _direction(points)
     if axis is None:
         return True
