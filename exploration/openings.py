@@ -29,7 +29,7 @@ def in_a_wall_gap(points: np.ndarray, hits: cKDTree, reach: float, tolerance: fl
                   side: float) -> bool:
     """Does the region ``points`` (k, 2), meters, lie in a gap of a wall's line? The line is
     the principal direction, through their mean, of the hits within ``reach`` m of one of the
-    region's ends, or the line that most of those within ``2 * reach`` m hold (``wall_line``,
+    region's ends, or the line that most of those within ``2 * reach`` m hold (``_wall_line``,
     a band ``tolerance`` m wide): by a door's end, the hits within ``reach`` mix the wall's
     face with the jamb's across it, and their line tilts off the wall (lab_a: by 7.5 and 11.5
     degrees, leaving within 0.2 m of a 0.6 m door a wall that runs on for metres; the longer
@@ -56,15 +56,16 @@ def in_a_wall_gap(points: np.ndarray, hits: cKDTree, reach: float, tolerance: fl
         if direction is None:
             continue
         said = True
-        lines = ((near.mean(axis=0), direction),
-                 wall_line(hits.data[hits.query_ball_point(end, 2 * reach)], tolerance))
-        if any(_in_gap(points, hits.data[around], centre, direction, tolerance, side)
-               for centre, direction in lines):
+        wall = hits.data[around]
+        if _in_gap(points, wall, near.mean(axis=0), direction, tolerance, side):
+            return True
+        centre, direction = _wall_line(hits.data[hits.query_ball_point(end, 2 * reach)], tolerance)
+        if _in_gap(points, wall, centre, direction, tolerance, side):
             return True
     return not said
 
 
-def wall_line(hits: np.ndarray, width: float) -> tuple[np.ndarray, np.ndarray]:
+def _wall_line(hits: np.ndarray, width: float) -> tuple[np.ndarray, np.ndarray]:
     """(centre, direction), each (2,): the line of the most of ``hits`` (k, 2), meters, that a
     band ``width`` m wide holds (directions every degree), through their mean along their
     principal direction."""
