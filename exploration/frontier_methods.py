@@ -112,6 +112,8 @@ class CFrontier:
                                  approach=approach, near=reachable.near)
         significant = [k for k in (self._significant(k, frontier, reachable, approach) for k in clusters)
                        if k is not None]
+        if sum(len(k.points) for k in significant) < c.goals.min_points:
+            return []
         return sorted(significant, key=lambda k: -k.utility)
 
     def _significant(self, cluster: FrontierCluster, frontier: Frontier, reachable: Reachable,
