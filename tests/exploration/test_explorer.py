@@ -559,6 +559,26 @@ def test_the_unseen_end_of_a_face_at_a_corner_is_no_door(method):
     assert 7.2 <= plan.goal[0] <= 8.2 and 3.9 <= plan.goal[1] <= 4.8
 
 
+def test_the_grid_method_does_not_look_through_gaps_a_wall_s_hits_leave():
+    """The right wall's hits stand every 0.5 m (x 8.0-8.1 m), the 0.4 m between them never hit
+    (unknown), as a wall seen at grazing angles leaves it, with the unknown space round the
+    building beyond. With regions of 3 cells kept, each gap is a frontier region, and on the
+    grid alone a look from before it sees 40 m² through the gaps. A wall's face runs on past
+    its hits over gaps narrower than the robot: the look on the grid with the unknown cells
+    within the robot's radius of a hit occupied sees nothing, and the run ends; asked for any
+    gain (``min_gain`` 0: Yamauchi's stop), the robot drives to the wall."""
+    snapshot = room()
+    snapshot.prob[18:62, 80:82] = UNKNOWN
+    snapshot.prob[18:62:5, 80:82] = WALL
+    snapshot = with_wall_hits(as_grid(snapshot))
+    config = ExplorerConfig(method="grid", min_frontier_cells=3)
+    assert visible_unknown_area(snapshot.prob, snapshot.origin, RES, (7.6, 4.0), 8.0, 0.65) > 10.0
+    plan = Explorer(config).plan(snapshot, ROBOT)
+    assert plan.goal is None and plan.done == "frontiers_exhausted"
+    plan = Explorer(config.model_copy(update={"min_gain": 0.0})).plan(snapshot, ROBOT)
+    assert plan.goal is not None and plan.goal[0] > 7.0
+
+
 def corner_gap(rows, pocket=False):
     """The room of the test above with the right wall unseen over ``rows`` up to the top wall
     that runs on past the corner; with ``pocket``, a 0.6 m x 0.6 m unknown pocket (remnant
