@@ -73,10 +73,10 @@ class Reachable:
 class Frontier:
     """A snapshot's frontier: ``values`` (h, w) the frontier map (F, or 1 on grid frontier
     cells), ``cells`` (n, 2) its significant cells (ix, iy), for the grid method its
-    ``regions`` (a list of (m, 2) cell arrays), and for the C-frontier method the map
-    ``evidence`` (h, w) its significance test looks round on (the snapshot's evidence, occupied
-    too at unknown cells where Λo is); ``blocked`` (h, w) bool, the cells the laser cannot see
-    through; for the door check, ``seen`` (h, w) the snapshot's evidence itself."""
+    ``regions`` (a list of (m, 2) cell arrays), and the map ``evidence`` (h, w) the
+    significance test looks round on (``look_map``); ``blocked`` (h, w) bool, the cells the
+    laser cannot see through; for the door check, ``seen`` (h, w) the snapshot's evidence
+    itself, closed within the robot's radius of a hit as ``evidence`` is."""
 
     values: np.ndarray
     cells: np.ndarray
@@ -117,6 +117,7 @@ class CFrontier:
             return []
         return sorted(kept, key=lambda k: -k.utility)
 
+
 class GridFrontier:
     """The baseline: frontier regions of the log-odds grid (free cells beside unknown ones, at
     least ``min_frontier_cells``), the nearest by path first, each significant as the
@@ -124,11 +125,12 @@ class GridFrontier:
     within the robot's radius of a hit occupied (``look_map``).
 
     Yamauchi's stop alone waits for every region of ``min_frontier_cells`` to go, and in
-    clutter some never do: lab_e's grid run reached 99.8 % at 518 m and drove on to the step
+    clutter some never do: lab_e's grid run reached 99 % at 518 m and drove on to the step
     budget (874 m), 11-58 m a trip to regions of 10-35 cells in slots between furniture
     narrower than the robot and beside gaps of the outer wall, whose looks from their goals
-    showed 0.0-0.4 m². On the grid alone a look passes through the gaps a wall's hits leave
-    and counts the space beyond the building (5-13 m² beside lab_e's outer walls)."""
+    showed 0.0-0.4 m² (it now stops at 480 m). On the grid alone a look passes through the
+    gaps a wall's hits leave and counts the space beyond the building (5-13 m² beside lab_e's
+    outer walls)."""
 
     def __init__(self, config: ExplorerConfig, costmap: CostmapConfig | None = None):
         self.config = config
