@@ -89,7 +89,9 @@ class Frontier:
 class CFrontier:
     """The paper's method: the C-frontier map F (eq. 10) thresholded, clustered with k-means and
     ranked by the utility of eq. 11; a cluster is significant when a look round from its goal,
-    or from a goal by another of its points, would show ``min_gain`` m² of unknown space."""
+    or from a goal by another of its points, would show ``min_gain`` m² of unknown space, and
+    no frontier is left when the significant clusters hold fewer than ``goals.min_points``
+    points (remnant texture no look finds worth a trip does not count towards them)."""
 
     def __init__(self, config: ExplorerConfig):
         self.config = config

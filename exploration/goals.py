@@ -19,8 +19,9 @@ class GoalConfig(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     threshold: float = Field(0.6, ge=0, description="keep points with F above this: the desired sensitivity")
-    min_points: int = Field(20, ge=1, description="fewer frontier points than this: no frontier "
-                            "left (20 points of 0.1 m: 2 m of frontier); a goal is kept while half "
+    min_points: int = Field(20, ge=1, description="fewer frontier points than this (the C-frontier "
+                            "method: in significant clusters) means no frontier is left (20 "
+                            "points of 0.1 m: 2 m of frontier); a goal is kept while half "
                             "this many (half its cluster's, when fewer) remain near it")
     points_per_cluster: int = Field(40, ge=1, description="k = ceil(n / points_per_cluster)")
     alpha: float = Field(3.0, ge=0, description="weight of information against sqrt(distance); "
