@@ -538,6 +538,18 @@ def test_a_door_sized_frontier_whose_cells_hold_hits_is_a_grazed_wall(method):
     assert 7.2 <= plan.goal[0] <= 8.2 and 3.6 <= plan.goal[1] <= 4.4
 
 
+def corner_gap(rows, pocket=False):
+    """The room with its top wall running on past its top-right corner (to x = 9.5 m) and the
+    right wall unseen over ``rows``; with ``pocket``, a 0.6 m x 0.6 m unknown pocket (remnant
+    texture) at x 2.5-3.0 m, y 2.5-3.0 m, far from the corner."""
+    snapshot = room()
+    snapshot.prob[60:62, 82:96], snapshot.prob_occ[60:62, 82:96] = WALL, WALL
+    snapshot.prob[rows, 80:82], snapshot.prob_occ[rows, 80:82] = UNKNOWN, UNKNOWN
+    if pocket:
+        snapshot.prob[25:31, 25:31], snapshot.prob_occ[25:31, 25:31] = UNKNOWN, UNKNOWN
+    return with_wall_hits(snapshot)
+
+
 @pytest.mark.parametrize("method", ["gp", "grid"])
 def test_the_unseen_end_of_a_face_at_a_corner_is_no_door(method):
     """The room's top wall runs on past its top-right corner (to x = 9.5 m), and the right wall
@@ -546,28 +558,10 @@ def test_the_unseen_end_of_a_face_at_a_corner_is_no_door(method):
     face was grazed leaves it. Along the right wall's line nothing but the top wall, across it,
     lies above the gap, and along the top wall's the gap is a point: no door, and the run ends.
     The same gap halfway up the wall (y 4.0-4.7 m) is one."""
-    def with_gap(rows):
-        snapshot = room()
-        snapshot.prob[60:62, 82:96], snapshot.prob_occ[60:62, 82:96] = WALL, WALL
-        snapshot.prob[rows, 80:82], snapshot.prob_occ[rows, 80:82] = UNKNOWN, UNKNOWN
-        return with_wall_hits(snapshot)
-
-    plan = Explorer(ExplorerConfig(method=method)).plan(with_gap(slice(52, 60)), ROBOT)
+    plan = Explorer(ExplorerConfig(method=method)).plan(corner_gap(slice(52, 60)), ROBOT)
     assert plan.goal is None and plan.done == "frontiers_exhausted"
-    plan = Explorer(ExplorerConfig(method=method)).plan(with_gap(slice(40, 48)), ROBOT)
+    plan = Explorer(ExplorerConfig(method=method)).plan(corner_gap(slice(40, 48)), ROBOT)
     assert 7.2 <= plan.goal[0] <= 8.2 and 3.9 <= plan.goal[1] <= 4.8
-
-
-def corner_gap(rows, pocket=False):
-    """The room of the test above with the right wall unseen over ``rows`` up to the top wall
-    that runs on past the corner; with ``pocket``, a 0.6 m x 0.6 m unknown pocket (remnant
-    texture) at x 2.5-3.0 m, y 2.5-3.0 m, far from the corner."""
-    snapshot = room()
-    snapshot.prob[60:62, 82:96], snapshot.prob_occ[60:62, 82:96] = WALL, WALL
-    snapshot.prob[rows, 80:82], snapshot.prob_occ[rows, 80:82] = UNKNOWN, UNKNOWN
-    if pocket:
-        snapshot.prob[25:31, 25:31], snapshot.prob_occ[25:31, 25:31] = UNKNOWN, UNKNOWN
-    return with_wall_hits(snapshot)
 
 
 def test_remnant_texture_elsewhere_does_not_make_a_short_frontier_a_goal():
