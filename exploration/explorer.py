@@ -48,11 +48,12 @@ class ExplorerConfig(BaseModel):
     robot_radius: float = Field(0.25, gt=0, description="m")
     min_goal_distance: float = Field(0.3, ge=0, description="a goal closer than this (m) to the "
                                      "robot is one it cannot observe better: blacklisted")
-    min_gain: float = Field(1.0, ge=0, description="gp method, m²: a frontier cluster whose goal "
-                            "would show less unknown area than this, looking round to "
-                            "sensor_range, is not significant (the stop's sensitivity; "
-                            "missed_area_m2 counts regions of 1 m²). The grid baseline keeps "
-                            "Yamauchi's stop: frontier regions of min_frontier_cells")
+    min_gain: float = Field(1.0, ge=0, description="m², both methods: a frontier cluster (a grid "
+                            "region) whose goal, and the goals by its other points, would show "
+                            "less unknown area than this, looking round to sensor_range, is not "
+                            "significant (the stop's sensitivity; missed_area_m2 counts regions "
+                            "of 1 m²). 0: every cluster counts (for the grid, Yamauchi's stop: "
+                            "no frontier region of min_frontier_cells left)")
     sensor_range: float = Field(8.0, gt=0, description="m, the laser's, for that look")
     closed_stretch: float = Field(0.75, gt=0, description="meters of path ahead of a robot that "
                                   "got stuck closed to later paths: a passage the map reads "
