@@ -239,6 +239,33 @@ def test_grid_frontiers_and_nearest():
     assert grid_frontiers(speck, CostmapConfig(), min_size=10) == []
 
 
+def test_a_door_seen_on_a_diagonal_is_as_long_as_one_seen_along_an_axis():
+    """A wall with an unseen opening between free space and unknown space, along an axis and
+    at 45°: the opening's frontier is kept when the opening is 1 m wide (10 cells of 0.1 m) and
+    dropped when it is 0.8 m, whichever way the wall runs. On the diagonal the frontier is a
+    staircase of one cell a row, 0.14 m apart: 8 cells for the 1 m opening."""
+
+    def axis(opening: int) -> np.ndarray:
+        prob = np.full((40, 40), 0.5)
+        prob[:20] = 0.05
+        prob[20] = 0.95
+        prob[20, 10:10 + opening] = 0.5
+        return prob
+
+    def diagonal(opening: int) -> np.ndarray:
+        iy, ix = np.mgrid[:40, :40]
+        prob = np.where(iy < ix, 0.05, 0.5)
+        prob[(iy == ix) & ((ix < 10) | (ix >= 10 + opening))] = 0.95
+        return prob
+
+    for wide, kept in ((1.0, True), (0.8, False)):
+        regions = grid_frontiers(axis(round(wide / 0.1)), CostmapConfig(), min_size=10)
+        assert (len(regions) == 1) is kept and (not kept or len(regions[0]) == 10)
+        cells = round(wide / (0.1 * math.sqrt(2)))             # 7 and 6 diagonal cells
+        regions = grid_frontiers(diagonal(cells), CostmapConfig(), min_size=10)
+        assert (len(regions) == 1) is kept and (not kept or len(regions[0]) == cells + 1)
+
+
 def test_paths_keep_off_walls_where_there_is_room_and_still_pass_a_door():
     """A 3 m tall hall split at x = 5 m by a wall with a 0.8 m door low in it: from the middle
     of the left half to the middle of the right half, the path keeps the preferred clearance
