@@ -182,7 +182,8 @@ class GridFrontier:
             best = int(np.argmin(d))
             distance = float(d[best])
             if np.isfinite(distance):
-                cell = best_cell_near(reachable.dist, region[best], reachable.reach)
+                cell = best_cell_near(reachable.dist, region[best], reachable.reach, frontier.blocked)
+                distance = float(reachable.dist[cell[1], cell[0]])
             else:
                 cell = approach.goal(region)
                 distance = math.inf if cell is None else float(reachable.dist[cell[1], cell[0]])
@@ -315,7 +316,7 @@ def significant(cluster: FrontierCluster, frontier: Frontier, reachable: Reachab
         return look(frontier, reachable, at, config, costmap)
 
     def cell_near(dist: np.ndarray, cell: np.ndarray, reach: int) -> np.ndarray | None:
-        best = best_cell_near(dist, cell, reach)
+        best = best_cell_near(dist, cell, reach, frontier.blocked)
         return best if np.isfinite(dist[best[1], best[0]]) else approach.goal(np.asarray(cell)[None])
 
     if cluster.goal is None:

@@ -114,14 +114,26 @@ def near_distance(dist: np.ndarray, radius: int) -> np.ndarray:
     return near
 
 
-def best_cell_near(dist: np.ndarray, cell, radius: int) -> np.ndarray:
-    """The cell (ix, iy) within ``radius`` cells of ``cell`` with the smallest ``dist``."""
+def best_cell_near(dist: np.ndarray, cell, radius: int, blocked: np.ndarray | None = None) -> np.ndarray:
+    """The cell (ix, iy) within ``radius`` cells of ``cell`` with the smallest ``dist``; with
+    ``blocked`` (h, w) bool, the cells the laser cannot see through, the one with the smallest
+    ``dist`` of those that see ``cell`` (``sees``), when one does and is reachable: a goal
+    from which the frontier it serves is seen (lab_a's grid run was sent round a corner to a
+    goal by a doorway's near end, from which the wall beside the doorway hid the room behind
+    it; the region looked too small and the room was left)."""
     h, w = dist.shape
     candidates = np.asarray(cell) + _disc(radius)[1]
     inside = ((candidates[:, 0] >= 0) & (candidates[:, 0] < w)
               & (candidates[:, 1] >= 0) & (candidates[:, 1] < h))
     candidates = candidates[inside]
-    return candidates[np.argmin(dist[candidates[:, 1], candidates[:, 0]])]
+    d = dist[candidates[:, 1], candidates[:, 0]]
+    if blocked is not None:
+        for k in np.argsort(d, kind="stable"):
+            if not np.isfinite(d[k]):
+                break
+            if sees(blocked, candidates[k], cell):
+                return candidates[k]
+    return candidates[np.argmin(d)]
 
 
 def nearest_reachable_cell(dist: np.ndarray, cell, radius: int) -> np.ndarray | None:
@@ -166,14 +178,15 @@ class Approach:
             if away[k] > self.view:
                 return None
             iy, ix = self._nearest[:, cells[k, 1], cells[k, 0]]
-            if self.dist[iy, ix] > self.min_path and self._sees((ix, iy), cells[k]):
+            if self.dist[iy, ix] > self.min_path and sees(self.blocked, (ix, iy), cells[k]):
                 return np.array([ix, iy])
         return None
 
-    def _sees(self, a, b) -> bool:
-        """No blocked cell between cells ``a`` and ``b`` (ix, iy), sampled every half cell."""
-        n = max(2, int(2 * math.hypot(b[0] - a[0], b[1] - a[1])) + 1)
-        t = np.linspace(0.0, 1.0, n)
-        ix = np.round(a[0] + t * (b[0] - a[0])).astype(int)
-        iy = np.round(a[1] + t * (b[1] - a[1])).astype(int)
-        return not self.blocked[iy, ix].any()
+
+def sees(blocked: np.ndarray, a, b) -> bool:
+    """No ``blocked`` cell between cells ``a`` and ``b`` (ix, iy), sampled every half cell."""
+    n = max(2, int(2 * math.hypot(b[0] - a[0], b[1] - a[1])) + 1)
+    t = np.linspace(0.0, 1.0, n)
+    ix = np.round(a[0] + t * (b[0] - a[0])).astype(int)
+    iy = np.round(a[1] + t * (b[1] - a[1])).astype(int)
+    return not blocked[iy, ix].any()
