@@ -21,7 +21,7 @@ from exploration.frontier import frontier_map
 from exploration.gain import visible_unknown_area
 from exploration.goals import Blacklist, FrontierCluster, extract_goals
 from exploration.grid_frontier import grid_frontiers
-from exploration.openings import faces, holding_hits, in_a_wall_gap
+from exploration.openings import holding_hits, in_a_wall_gap
 from exploration.paths import Approach, best_cell_near, nearest_reachable_cell, path_to
 from mapping.metrics import KNOWN
 from mapping.occupancy import MapSnapshot
@@ -76,8 +76,7 @@ class Frontier:
     ``regions`` (a list of (m, 2) cell arrays), and the map ``evidence`` (h, w) the
     significance test looks round on (``look_map``); ``blocked`` (h, w) bool, the cells the
     laser cannot see through; for the door check, ``seen`` (h, w) the snapshot's evidence
-    itself, closed as ``evidence`` is within the robot's radius of a hit (on a grid: along
-    its faces)."""
+    itself, closed within the robot's radius of a hit as ``evidence`` is."""
 
     values: np.ndarray
     cells: np.ndarray
@@ -124,8 +123,8 @@ class CFrontier:
 class GridFrontier:
     """The baseline: frontier regions of the log-odds grid (free cells beside unknown ones, at
     least ``min_frontier_cells``), the nearest by path first, each significant as the
-    C-frontier method's clusters are (``significant``), on the grid with its unknown cells on
-    the faces its hits trace occupied (``look_map``).
+    C-frontier method's clusters are (``significant``), on the grid with its unknown cells
+    within the robot's radius of a hit occupied (``look_map``).
 
     Yamauchi's stop alone waits for every region of ``min_frontier_cells`` to go, and in
     clutter some never do: lab_e's grid run reached 99 % at 518 m and drove on to the step
@@ -250,8 +249,8 @@ class DoorFrontier(GridFrontier):
                 self.config.robot_radius))
         cells = np.vstack(regions) if regions else np.zeros((0, 2), int)
         looked = look_map(snapshot, self.costmap, self.config.robot_radius)
-        seen = looked if snapshot.prob_occ is None else evidence(snapshot)     # a grid's faces stay
-        if snapshot.prob_occ is not None and snapshot.hits is not None:   # and Λo's within the robot's radius of a hit
+        seen = evidence(snapshot)
+        if snapshot.hits is not None:       # the closing within the robot's radius of a hit stays
             near = np.isfinite(distance_to_points(snapshot.hits, snapshot.origin, snapshot.resolution,
                                                   seen.shape, self.config.robot_radius))
             seen = np.where(near, looked, seen)
@@ -333,21 +332,20 @@ def look_map(snapshot: MapSnapshot, costmap: CostmapConfig, radius: float) -> np
     its unknown cells where the obstacle GP predicts an obstacle (Λo), as at the unseen face
     of a block whose other faces were seen: behind such a face lies the block's inside, not
     space to explore. Cells a beam crossed keep the evidence (Λo smooths over doors a beam
-    has passed). A grid has no Λo: its unknown cells on the ``faces`` joining hits less than
-    ``2 * radius`` m (the robot's diameter) apart are occupied instead, a face running on over
-    the gaps a laser leaves in it at grazing angles, and an opening the robot can pass staying
-    open at its whole width (lab_c's grid run drove 40 m to gaps between sparse hits on the
-    faces of thick walls, whose looks showed 1.2-5.8 m² of the walls' insides and the outside,
-    and 0.01-0.14 m² so closed; closing the cells within the robot's radius of a hit instead
-    left 0.15 m of a 0.65 m doorway in lab_a, and its look missed the room behind)."""
+    has passed). A grid has no Λo: its unknown cells within ``radius`` m (the robot's) of a hit
+    are occupied instead, a face running on past its hits over the gaps a laser leaves in it
+    at grazing angles, narrower than the robot, where a door's middle stays open (lab_c's grid
+    run drove 40 m to gaps between sparse hits on the faces of thick walls, whose looks showed
+    1.2-5.8 m² of the walls' insides and the outside, and 0.01-0.14 m² so closed)."""
     seen = evidence(snapshot)
     if snapshot.prob_occ is not None:
         return np.where((snapshot.prob_occ > costmap.occupied_above) & (np.abs(seen - 0.5) <= KNOWN),
                         1.0, seen)
     if snapshot.hits is None or not len(snapshot.hits):
         return seen
-    face = faces(snapshot.hits, snapshot.origin, snapshot.resolution, seen.shape, 2 * radius)
-    return np.where(face & (np.abs(seen - 0.5) <= KNOWN), 1.0, seen)
+    near = np.isfinite(distance_to_points(snapshot.hits, snapshot.origin, snapshot.resolution, seen.shape,
+                                          radius))
+    return np.where(near & (np.abs(seen - 0.5) <= KNOWN), 1.0, seen)
 
 
 def look(frontier: Frontier, reachable: Reachable, at: np.ndarray, config: ExplorerConfig,

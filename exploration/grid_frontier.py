@@ -41,7 +41,7 @@ def region_size(region: np.ndarray) -> float:
     staircase of one cell a row, √2 cells apart: counted alone, a 1.1 m opening seen at 45°
     is 8 cells, below the 10 of a 1 m one along an axis (lab_a's grid run left a 11 m² room
     behind such a door)."""
-    if len(region) < 2 or len(region) >= math.hypot(*np.ptp(region, axis=0)) + 1.0:   # no longer than its box's diagonal
+    if len(region) >= math.hypot(*np.ptp(region, axis=0)) + 1.0:   # no longer than its box's diagonal
         return float(len(region))
     return max(float(len(region)), float(pdist(region).max()) + 1.0)
 

@@ -25,22 +25,6 @@ def holding_hits(hits: np.ndarray, origin, resolution: float, shape: tuple[int, 
     return held
 
 
-def faces(hits: np.ndarray, origin, resolution: float, shape: tuple[int, int], gap: float) -> np.ndarray:
-    """(h, w) bool, the cells of a grid (cell (0, 0)'s centre at ``origin``) on the straight
-    lines joining two cells that hold ``hits`` (k, 2), meters, when fewer than ``gap`` m of
-    cells lie between them: a face run on over the gaps the laser leaves in it, and the gaps
-    of ``gap`` or wider left open at their whole width."""
-    held = holding_hits(hits, origin, resolution, shape)
-    cells = np.argwhere(held)[:, ::-1].astype(float)
-    pairs = cKDTree(cells).query_pairs(gap / resolution + 1.0 - 1e-6, output_type="ndarray")
-    if len(pairs):
-        a, b = cells[pairs[:, 0]], cells[pairs[:, 1]]
-        t = np.linspace(0.0, 1.0, int(math.ceil(2.0 * (gap / resolution + 1.0))) + 1)
-        line = np.round(a[:, None, :] + t[None, :, None] * (b - a)[:, None, :]).astype(int).reshape(-1, 2)
-        held[line[:, 1], line[:, 0]] = True
-    return held
-
-
 def in_a_wall_gap(points: np.ndarray, hits: cKDTree, reach: float, tolerance: float,
                   side: float) -> bool:
     """Does the region ``points`` (k, 2), meters, lie in a gap of a wall's line? The line is

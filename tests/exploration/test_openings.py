@@ -3,7 +3,7 @@
 import numpy as np
 from scipy.spatial import cKDTree
 
-from exploration.openings import faces, holding_hits, in_a_wall_gap
+from exploration.openings import holding_hits, in_a_wall_gap
 
 STEP = 0.05                 # a hit every 5 cm along a wall
 TOLERANCE = 0.1 * np.sqrt(2)  # a 0.1 m cell's diagonal
@@ -88,19 +88,3 @@ def test_cells_holding_hits():
     held = holding_hits(np.array([[0.04, 0.06], [0.26, 0.14], [5.0, 0.0], [-0.2, 0.0]]),
                         (0.0, 0.0), 0.1, (3, 4))
     assert np.array_equal(np.argwhere(held), [[1, 0], [1, 3]])
-
-
-def test_faces_run_on_over_gaps_narrower_than_the_robot_and_leave_wider_ones_whole():
-    """A wall along y = 1 m on 0.1 m cells, hit every 5 cm except over a 0.4 m gap and a
-    0.6 m one (cells 11-14 and 26-31), and a diagonal one, a hit in each cell from (5.5, 0.5)
-    to (7.5, 2.5) except over a 0.42 m gap (3 cells, 0.14 m apart). With a 0.5 m robot the
-    0.4 m and 0.42 m gaps are face, the 0.6 m one is open at its whole width, and nothing off
-    the walls is face."""
-    along = np.vstack([wall((0.0, 1.0), (1.0, 1.0)), wall((1.5, 1.0), (2.5, 1.0)), wall((3.2, 1.0), (4.0, 1.0))])
-    diagonal = np.array([(5.5 + 0.1 * k, 0.5 + 0.1 * k) for k in range(21) if k not in (9, 10, 11)])
-    face = faces(np.vstack([along, diagonal]), (0.0, 0.0), 0.1, (30, 80), 0.5)
-    expected = np.zeros_like(face)
-    expected[10, :41] = True
-    expected[10, 26:32] = False
-    expected[5 + np.arange(21), 55 + np.arange(21)] = True
-    assert np.array_equal(face, expected)
