@@ -113,7 +113,9 @@ def test_the_two_rooms_tour_goes_through_the_door():
 # its other points (a remnant joined with a corridor's end): gp 9.40 m = 1.47 x, coverage
 # 0.9998; without that look, 6.96 m and coverage 0.9946.
 # With the grid's regions significant by the same look (unknown cells within the robot's radius
-# of a hit closed): grid 8.31 m = 1.30 x in 296 scans, coverage 0.9984.
+# of a hit closed): grid 8.31 m = 1.30 x in 296 scans, coverage 0.9984. With regions measured by
+# their length too and goals that see their frontier cell: grid 7.45 m = 1.16 x in 278 scans,
+# coverage 0.9908; gp unchanged, 9.40 m in 313 scans.
 # The marks below keep the 30 % assertion and record where a run does not meet it; strict, so
 # that a run that comes within it fails until its mark is removed.
 
@@ -131,9 +133,9 @@ def test_travel_is_within_30_percent_of_the_seeing_tour(method):
 
 @pytest.mark.parametrize("method", [
     pytest.param("gp", marks=pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-        "measured 230 scans = 1.37 x the 168.3 scans of the seeing tour at full speed"))),
+        "measured 313 scans = 1.86 x the 168.3 scans of the seeing tour at full speed"))),
     pytest.param("grid", marks=pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-        "measured 296 scans = 1.76 x the 168.3 scans of the seeing tour at full speed"))),
+        "measured 278 scans = 1.65 x the 168.3 scans of the seeing tour at full speed"))),
 ])
 def test_steps_are_within_30_percent_of_the_tour_at_full_speed(method):
     m, _, steps = _report(method)
