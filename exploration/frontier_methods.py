@@ -20,7 +20,7 @@ from exploration.costmap import CostmapConfig, classify, distance_to_points
 from exploration.frontier import frontier_map
 from exploration.gain import visible_unknown_area
 from exploration.goals import Blacklist, FrontierCluster, extract_goals
-from exploration.grid_frontier import grid_frontiers
+from exploration.grid_frontier import grid_frontiers, region_size
 from exploration.openings import holding_hits, in_a_wall_gap
 from exploration.paths import Approach, best_cell_near, nearest_reachable_cell, path_to
 from mapping.metrics import KNOWN
@@ -175,7 +175,7 @@ class GridFrontier:
         clusters = []
         for region in frontier.regions:
             region = region[~blacklist.covers(origin + resolution * region)]
-            if len(region) < self.min_cells(resolution):
+            if region_size(region) < self.min_cells(resolution):
                 continue
             d = reachable.near[region[:, 1], region[:, 0]]
             best = int(np.argmin(d))

@@ -39,9 +39,9 @@ def region_size(region: np.ndarray) -> float:
     """A frontier region's size, cells: its cell count or its length (the longest distance
     between two of its cells, plus one), whichever is greater. A frontier on a diagonal is a
     staircase of one cell a row, √2 cells apart: counted alone, a 1.1 m opening seen at 45°
-    is 8 cells, below the 10 of a 1 m one along an axis (lab_a's grid run left a 11 m² room
+    is 8 cells, below the 10 of a 1 m one along an axis (lab_a's grid run left an 11 m² room
     behind such a door)."""
-    if len(region) >= math.hypot(*np.ptp(region, axis=0)) + 1.0:   # no longer than its box's diagonal
-        return float(len(region))
+    if len(region) < 2 or len(region) >= math.hypot(*np.ptp(region, axis=0)) + 1.0:
+        return float(len(region))     # its box's diagonal bounds its length
     return max(float(len(region)), float(pdist(region).max()) + 1.0)
 

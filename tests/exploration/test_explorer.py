@@ -559,6 +559,21 @@ def test_the_grid_method_does_not_look_through_gaps_a_wall_s_hits_leave():
     assert plan.goal is not None and plan.goal[0] > 7.0
 
 
+def test_the_grid_method_takes_a_door_seen_on_a_diagonal_as_long_as_it_is():
+    """A 6 m x 6 m walled square cut along its diagonal by a wall with a 1 m opening (7 cells
+    of 0.1 m, centred near (2.8, 2.8) m): the robot's half is free, the other unknown, walled
+    in (the door check takes such space, enclosed by seen walls, for a block's inside). The
+    opening's frontier is a staircase of 8 cells, under the 10 of the grid's smallest region,
+    1.1 m long: a region, and the robot goes to it."""
+    iy, ix = np.mgrid[:60, :60]
+    prob = np.where(iy < ix, FREE, UNKNOWN)
+    prob[(iy == ix) & ((ix < 25) | (ix >= 32))] = WALL
+    prob[[0, -1], :] = prob[:, [0, -1]] = WALL
+    plan = Explorer(ExplorerConfig(method="grid")).plan(MapSnapshot(prob, None, np.zeros(2), RES),
+                                                        gtsam.Pose2(4.5, 1.5, 0.0))
+    assert plan.goal is not None and np.linalg.norm(plan.goal - 2.8) < 0.8
+
+
 def corner_gap(rows, pocket=False):
     """The room with its top wall running on past its top-right corner (to x = 9.5 m) and the
     right wall unseen over ``rows``; with ``pocket``, a 0.6 m x 0.6 m unknown pocket (remnant
