@@ -114,7 +114,7 @@ def test_the_two_rooms_tour_goes_through_the_door():
 # 0.9998; without that look, 6.96 m and coverage 0.9946.
 # With the grid's regions significant by the same look (unknown cells within the robot's radius
 # of a hit closed): grid 8.31 m = 1.30 x in 296 scans, coverage 0.9984. With regions measured by
-# their length too and goals that see their frontier cell: grid 7.45 m = 1.16 x in 278 scans,
+# their length too and goals that see their region's cell: grid 7.45 m = 1.16 x in 278 scans,
 # coverage 0.9908; gp unchanged, 9.40 m in 313 scans.
 # The marks below keep the 30 % assertion and record where a run does not meet it; strict, so
 # that a run that comes within it fails until its mark is removed.
