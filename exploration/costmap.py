@@ -301,7 +301,11 @@ def _pattern_search(points, starts, w, pad, x0, y0, resolution, cells, bound, le
 def driven(trail: np.ndarray, resolution: float, origin, shape, max_step: float = 1.0):
     """The cells the robot's centre crossed along ``trail`` (k, 2), its past positions in
     order (meters; a step longer than ``max_step`` m, a jump of the estimate, is left out),
-    each with the crossing point nearest to its centre.
+    each with the crossing point nearest to its centre. They join side by side: where the
+    trail passes from a cell to a diagonal one (at, or within a sample of, their common
+    corner), the side cell it passes nearer is crossed too, since paths take no diagonal step
+    past a blocked side cell (889_05: a robot that had driven in on a 45° line, and stood
+    inside the costmap's clearance, had a trail of corner-joined cells and no way out).
 
     Returns:
         cells: (n, 2) (ix, iy) on the (h, w) ``shape`` grid whose cell (0, 0)'s centre is at
@@ -318,6 +322,15 @@ def driven(trail: np.ndarray, resolution: float, origin, shape, max_step: float 
     points = a[step] + t[:, None] * (b - a)[step]
     origin = np.asarray(origin, float)
     cells = np.round((points - origin) / resolution).astype(int)
+    corner = np.all(np.abs(np.diff(cells, axis=0)) == 1, axis=1)
+    mid = (points[:-1][corner] + points[1:][corner]) / 2
+    sides = [np.column_stack([cells[1:][corner, 0], cells[:-1][corner, 1]]),
+             np.column_stack([cells[:-1][corner, 0], cells[1:][corner, 1]])]
+    gaps = [np.linalg.norm(mid - (origin + resolution * side), axis=1) for side in sides]
+    side = np.where((gaps[0] <= gaps[1])[:, None], sides[0], sides[1])
+    cells = np.vstack([cells, side])
+    points = np.vstack([points, origin + resolution * side + np.clip(
+        mid - (origin + resolution * side), -resolution / 2, resolution / 2)])
     offset = points - (origin + resolution * cells)
     h, w = shape
     inside = (cells[:, 0] >= 0) & (cells[:, 0] < w) & (cells[:, 1] >= 0) & (cells[:, 1] < h)

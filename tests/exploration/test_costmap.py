@@ -311,3 +311,25 @@ def test_driven_cells_are_those_the_trail_crosses_at_their_nearest_point():
     np.testing.assert_allclose(offset[:, 1], 0.03, atol=1e-9)
     assert np.abs(offset[:, 0]).max() <= 0.0125 + 1e-9
     assert len(driven(np.zeros((1, 2)), 0.1, (0.0, 0.0), (50, 80))[0]) == 0
+
+
+def test_a_trail_on_a_diagonal_is_a_way_for_paths():
+    """A corridor of free cells too narrow for the costmap's clearance (0.3 m) on the 45° line
+    between two open squares, driven from (0.55, 0.55) to (2.55, 2.55) m through the corners
+    of its 0.1 m cells: the crossed cells are passable and join side by side (paths take no
+    diagonal step past a blocked side cell), and a path from one square to the other follows
+    the line, within one cell of it."""
+    prob = np.full((40, 40), 0.9)
+    prob[:11, :11] = prob[21:, 21:] = 0.05                     # open ends
+    iy, ix = np.mgrid[:40, :40]
+    prob[np.abs(ix - iy) <= 1] = 0.05                            # the diagonal, 0.3 m wide
+    trail = np.linspace(0.55, 2.55, 41)[:, None].repeat(2, axis=1)     # a pose every 7 cm
+    cells, _ = driven(trail, 0.1, (0.0, 0.0), prob.shape)
+    steps = np.abs(np.diff(cells[np.lexsort([cells[:, 0], cells[:, 0] + cells[:, 1]])], axis=0)).sum(axis=1)
+    assert (steps == 1).all()                                    # a chain of side-by-side cells
+    assert not passable(prob, 0.1, 0.25, CostmapConfig())[0][15, 15]    # too narrow by clearance alone
+    ok, cost, _ = passable(prob, 0.1, 0.25, CostmapConfig(), trail=trail)
+    dist, parent = distance_field(ok, (5, 5), 0.1, cost)
+    assert np.isfinite(dist[25, 25])
+    path = path_to(parent, (25, 25))
+    assert np.abs(path[:, 0] - path[:, 1]).max() <= 1
