@@ -113,7 +113,8 @@ class CFrontier:
         clusters = extract_goals(frontier.values, reachable.origin, reachable.resolution,
                                  reachable.dist, c.goals, blacklist, seed=int(rng.integers(2**31)),
                                  approach=approach, near=reachable.near)
-        kept = [k for k in (significant(k, frontier, reachable, approach, c, self.costmap) for k in clusters)
+        kept = [k for k in (significant(k, frontier, reachable, approach, c, self.costmap, frontier.blocked)
+                            for k in clusters)
                 if k is not None]
         if sum(len(k.points) for k in kept) < c.goals.min_points:
             return []

@@ -126,7 +126,9 @@ def extract_goals(frontier: np.ndarray, origin, resolution: float, dist: np.ndar
         distance = float(d_points[best])
         cell = None
         if np.isfinite(distance):
-            cell = best_cell_near(dist, (ix[members][best], iy[members][best]), radius)
+            cell = best_cell_near(dist, (ix[members][best], iy[members][best]), radius,
+                                  None if approach is None else approach.blocked)
+            distance = float(dist[cell[1], cell[0]])
         elif approach is not None:
             cell = approach.goal(np.column_stack([ix[members], iy[members]]))
             distance = math.inf if cell is None else float(dist[cell[1], cell[0]])
