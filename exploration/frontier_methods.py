@@ -113,8 +113,7 @@ class CFrontier:
         clusters = extract_goals(frontier.values, reachable.origin, reachable.resolution,
                                  reachable.dist, c.goals, blacklist, seed=int(rng.integers(2**31)),
                                  approach=approach, near=reachable.near)
-        kept = [k for k in (significant(k, frontier, reachable, approach, c, self.costmap, frontier.blocked)
-                            for k in clusters)
+        kept = [k for k in (significant(k, frontier, reachable, approach, c, self.costmap) for k in clusters)
                 if k is not None]
         if sum(len(k.points) for k in kept) < c.goals.min_points:
             return []
@@ -125,14 +124,14 @@ class GridFrontier:
     """The baseline: frontier regions of the log-odds grid (free cells beside unknown ones, at
     least ``min_frontier_cells``), the nearest by path first, each significant as the
     C-frontier method's clusters are (``significant``), on the grid with its unknown cells
-    within the robot's radius of a hit occupied (``look_map``). A region's goal, and each goal
-    the test tries, sees the cell it serves (``best_cell_near`` with ``blocked``).
+    within the robot's radius of a hit occupied (``look_map``). A region's goal sees the cell
+    it serves (``best_cell_near`` with ``blocked``).
 
     Yamauchi's stop alone waits for every region of ``min_frontier_cells`` to go, and in
     clutter some never do: lab_e's grid run reached 99 % at 518 m and drove on to the step
     budget (874 m), 11-58 m a trip to regions of 10-35 cells in slots between furniture
     narrower than the robot and beside gaps of the outer wall, whose looks from their goals
-    showed 0.0-0.4 m² (it now stops at 480 m). On the grid alone a look passes through the
+    showed 0.0-0.4 m² (it now stops at 423 m). On the grid alone a look passes through the
     gaps a wall's hits leave and counts the space beyond the building (5-13 m² beside lab_e's
     outer walls)."""
 
@@ -163,7 +162,7 @@ class GridFrontier:
         """The significant regions (``regions``), the nearest by path first."""
         goals = self.config.goals
         approach = Approach(reachable.dist, frontier.blocked, reachable.resolution, goals.view, goals.reach)
-        kept = (significant(k, frontier, reachable, approach, self.config, self.costmap, frontier.blocked)
+        kept = (significant(k, frontier, reachable, approach, self.config, self.costmap)
                 for k in self.regions(frontier, reachable, blacklist))
         return sorted((dataclasses.replace(k, utility=-k.distance) for k in kept if k is not None),
                       key=lambda k: -k.utility)
@@ -303,8 +302,7 @@ class DoorFrontier(GridFrontier):
 
 
 def significant(cluster: FrontierCluster, frontier: Frontier, reachable: Reachable, approach: Approach,
-                config: ExplorerConfig, costmap: CostmapConfig,
-                blocked: np.ndarray | None = None) -> FrontierCluster | None:
+                config: ExplorerConfig, costmap: CostmapConfig) -> FrontierCluster | None:
     """The cluster when a look round on ``frontier.evidence`` from its goal (from its centroid
     when it has none) shows ``config.min_gain``; else, served from the nearest goal by another
     of its points that does (k-means can join a remnant beside the robot with a corridor's end
@@ -313,13 +311,13 @@ def significant(cluster: FrontierCluster, frontier: Frontier, reachable: Reachab
     it or, with none, from where ``approach`` would look at it (office_b: a room seen as a
     streak of beams through its door, its frontier out of reach from the corridor, shared a
     cluster with remnants 13 m away, and the run stopped with the room unexplored); else None.
-    With ``blocked`` (h, w) bool, each of those cells sees its point (``best_cell_near``)."""
+    Each of those cells sees its point past ``frontier.blocked`` (``best_cell_near``)."""
 
     def gain(at: np.ndarray) -> float:
         return look(frontier, reachable, at, config, costmap)
 
     def cell_near(dist: np.ndarray, cell: np.ndarray, reach: int) -> np.ndarray | None:
-        best = best_cell_near(dist, cell, reach, blocked)
+        best = best_cell_near(dist, cell, reach, frontier.blocked)
         return best if np.isfinite(dist[best[1], best[0]]) else approach.goal(np.asarray(cell)[None])
 
     if cluster.goal is None:

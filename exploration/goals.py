@@ -99,7 +99,8 @@ def extract_goals(frontier: np.ndarray, origin, resolution: float, dist: np.ndar
         blacklist: goals to avoid.
         seed: for k-means.
         approach: where to look at a cluster no reachable cell is within reach of (else it
-            has no goal).
+            has no goal); its ``blocked`` cells, when given, must not hide a cluster's nearest
+            point from its goal (``best_cell_near``).
         near: ``paths.near_distance`` of ``dist`` over ``config.reach``, when the caller has
             it (``Reachable.near``); else computed here.
     """
