@@ -66,6 +66,8 @@ def test_near_distance_and_best_cell():
     assert np.isinf(near[13, 5])
     assert tuple(best_cell_near(dist, (5, 12), 2)) == (5, 10)
     assert near[11, 5] == pytest.approx(4.0)  # (4, 10) is within 2 cells of (5, 11)
+
+
 def test_the_best_cell_near_a_frontier_cell_sees_it():
     """Path lengths grow with x (and a little with y), every cell reachable; a wall (x = 8,
     y 9-11) stands between the frontier cell (10, 10) and the cheapest cell within 3 cells
@@ -79,5 +81,3 @@ def test_the_best_cell_near_a_frontier_cell_sees_it():
     assert tuple(best_cell_near(dist, (10, 10), 3)) == (7, 10)
     assert tuple(best_cell_near(dist, (10, 10), 3, blocked)) == (8, 8)
     assert tuple(best_cell_near(dist, (10, 10), 3, np.ones((20, 20), dtype=bool))) == (7, 10)
-
-
