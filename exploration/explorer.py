@@ -21,8 +21,8 @@ from scipy.spatial import cKDTree
 
 from exploration.costmap import CostmapConfig, driven, passable
 from exploration.follower import rest_of_path
-from exploration.frontier_methods import (CFrontier, DoorFrontier, Frontier, GridFrontier, Reachable,
-                                          evidence)
+from exploration.frontier_methods import (CFrontier, DoorFrontier, Frontier, GridFrontier, MissedByF,
+                                          Reachable, evidence)
 from exploration.goals import Blacklist, FrontierCluster, GoalConfig
 from exploration.paths import distance_field, near_distance
 from mapping.occupancy import MapSnapshot
@@ -97,6 +97,10 @@ class Explorer:
         c = self.config
         self.method = CFrontier(c) if c.method == "gp" else GridFrontier(c)
         self.doors = DoorFrontier(c, self.method.costmap)
+        # the stop's checks, once the method finds no goal: doors, and for the C-frontier the
+        # grid's regions, which F can miss (``_choose``)
+        self.checks: tuple[GridFrontier, ...] = ((self.doors,) if c.method == "grid"
+                                                 else (self.doors, MissedByF(c, self.method.costmap)))
         self.source: CFrontier | GridFrontier = self.method  # what found the goal
         self.blacklist = Blacklist(c.goals.blacklist_radius)
         self.goal: np.ndarray | None = None
@@ -136,8 +140,7 @@ class Explorer:
         reachable = self._reachable(snapshot, pose)
         frontier = self.method.frontier(snapshot)
         if self.goal is not None:
-            source = (frontier if self.source is self.method
-                      else self.source.frontier(snapshot, any_length=True))
+            source = frontier if self.source is self.method else self.source.keeping(snapshot)
             if self._goal_still_valid(source, reachable):
                 return Plan(self.goal, reachable.path(self.goal), frontier=frontier.values)
         plan = self._choose(snapshot, frontier, reachable)
@@ -162,19 +165,23 @@ class Explorer:
         return True
 
     def _choose(self, snapshot: MapSnapshot, frontier: Frontier, reachable: Reachable) -> Plan:
-        """The best reachable cluster's goal, or when the method has none, the door check's
-        (``DoorFrontier``); a goal where the robot already stands is a frontier it cannot see
-        from anywhere reachable (e.g. behind a wall gap narrower than the robot): blacklist it
-        and choose again."""
+        """The best reachable cluster's goal, or when the method has none, the nearest goal of
+        the stop's checks (``checks``); a goal where the robot already stands is a frontier it
+        cannot see from anywhere reachable (e.g. behind a wall gap narrower than the robot):
+        blacklist it and choose again. The C-frontier's checks take, as well as doors, the
+        grid's regions beside space the COM does not know (``MissedByF``)."""
         self.goal = None
-        doors = None
+        checked = None
         while True:
             source, clusters = self.method, self.method.clusters(frontier, reachable, self.blacklist, self._rng)
             best = next((k for k in clusters if k.goal is not None), None)
             if best is None:
-                doors = self.doors.frontier(snapshot) if doors is None else doors
-                source = self.doors
-                best = next(iter(self.doors.clusters(doors, reachable, self.blacklist, self._rng)), None)
+                checked = [check.frontier(snapshot) for check in self.checks] if checked is None else checked
+                found = [(k, check) for check, seen in zip(self.checks, checked)
+                         for k in check.clusters(seen, reachable, self.blacklist, self._rng)
+                         if k.goal is not None]
+                if found:
+                    best, source = max(found, key=lambda pair: pair[0].utility)
             if best is None and not clusters:
                 return Plan(None, done="frontiers_exhausted", frontier=frontier.values)
             if best is None:

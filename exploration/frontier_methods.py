@@ -157,6 +157,10 @@ class GridFrontier:
         """(h, w) bool, cells that are no frontier whatever the grid reads there; None: none."""
         return None
 
+    def keeping(self, snapshot: MapSnapshot) -> Frontier:
+        """The frontier a goal this found is kept by (``Explorer._goal_still_valid``)."""
+        return self.frontier(snapshot)
+
     def clusters(self, frontier: Frontier, reachable: Reachable, blacklist: Blacklist,
                  rng: np.random.Generator) -> list[FrontierCluster]:
         """The significant regions (``regions``), the nearest by path first."""
@@ -192,6 +196,37 @@ class GridFrontier:
             clusters.append(FrontierCluster(points, points.mean(axis=0), 1.0, distance, goal, -distance))
         clusters.sort(key=lambda k: -k.utility)
         return clusters
+
+
+class MissedByF(GridFrontier):
+    """The C-frontier's stop check for frontiers F misses: the grid method's significant
+    regions, kept where the COM does not know the space beside them either (most of the
+    unknown cells next to a region are unknown on Λ too, |Λ − 0.5| ≤ ``KNOWN``).
+
+    F is low along a frontier that runs beside a wall, where ‖∇Λo‖ and Λo weigh against it:
+    lab_e's GP run looked down a room's 0.3 m wide strip of floor along its wall (Λ 0.35-0.45,
+    Λo 0.53-0.7), F stayed below 0.5 over its 2.4 m, and the run stopped with the room unseen;
+    the grid's region there showed 9 m², and Λ beside it averaged 0.46. On a block's unseen
+    face the costmap grid is unknown too, but the free GP, leaking through the block's other
+    faces, reads it free (Λ 0.13-0.20 beside the Stage cave's faces, whose looks showed the
+    blocks' insides, 3.4 m²): without the COM's word, every Stage cave run drove 20 m on to
+    them."""
+
+    def frontier(self, snapshot: MapSnapshot) -> Frontier:
+        found = super().frontier(snapshot)
+        unknown = np.abs(evidence(snapshot) - 0.5) <= KNOWN
+        unknown_on_com = np.abs(snapshot.prob - 0.5) <= KNOWN
+        h, w = unknown.shape
+        steps = np.array([(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if dx or dy])
+        regions = []
+        for region in found.regions:
+            near = np.unique((region[:, None, :] + steps).reshape(-1, 2), axis=0)
+            ix, iy = np.clip(near[:, 0], 0, w - 1), np.clip(near[:, 1], 0, h - 1)
+            beside = unknown[iy, ix]
+            if beside.any() and unknown_on_com[iy, ix][beside].mean() > 0.5:
+                regions.append(region)
+        cells = np.vstack(regions) if regions else np.zeros((0, 2), int)
+        return dataclasses.replace(found, cells=cells, regions=tuple(regions))
 
 
 class DoorFrontier(GridFrontier):
@@ -256,6 +291,9 @@ class DoorFrontier(GridFrontier):
                                                   seen.shape, self.config.robot_radius))
             seen = np.where(near, looked, seen)
         return dataclasses.replace(found, cells=cells, regions=regions, evidence=looked, seen=seen)
+
+    def keeping(self, snapshot: MapSnapshot) -> Frontier:
+        return self.frontier(snapshot, any_length=True)
 
     def surfaces(self, snapshot: MapSnapshot) -> np.ndarray | None:
         """(h, w) bool, the cells holding a hit (a beam ended there: a surface); None without

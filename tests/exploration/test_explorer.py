@@ -518,27 +518,41 @@ def test_a_door_seen_edge_on_is_explored_where_the_obstacle_gp_joins_its_jambs()
 
 
 
-@pytest.mark.xfail(strict=True, reason="F stays low along a frontier beside a wall, and the door "
-                   "check takes no region that long: lab_e's GP run stopped so with a room unseen "
-                   "(1.15 m² missed). Checking the grid's regions too found it (9 m²) but drove "
-                   "the Stage cave's runs 20 m on into blocks' insides through unseen faces")
-def test_the_c_frontier_does_not_stop_beside_a_frontier_f_misses_along_a_wall():
+def strip_past_the_door(beyond=None):
     """Past the right door the robot saw a 0.3 m strip of floor along the wall's outer face,
-    3.2 m long, unknown beyond it; the COM reads such a strip weakly (Λ 0.4, Λo 0.6: few
-    beams, a wall beside), and F stays below zero along it, where the costmap grid reads it
-    free. The grid's 32-cell region there is no door, but the C-frontier method should not
-    stop: a look from the door shows the space beyond."""
+    3.2 m long, unknown on the costmap grid beyond it (x > 8.5 m). The COM reads such a strip
+    weakly (Λ 0.4, Λo 0.6: few beams, a wall beside); ``beyond`` (Λ, Λo) is what it reads in
+    the 1 m beyond the strip (else unknown)."""
     snapshot = room([("right", *DOOR, 0)])
     grid = snapshot.prob.copy()
     strip = slice(14, DOOR[1]), slice(82, 85)
     grid[strip] = FREE
     for seen in (strip, (slice(*DOOR), slice(80, 82))):
         snapshot.prob[seen], snapshot.prob_occ[seen] = 0.4, 0.6
-    snapshot = dataclasses.replace(snapshot, traversable=grid)
+    if beyond is not None:
+        snapshot.prob[14:DOOR[1], 85:95], snapshot.prob_occ[14:DOOR[1], 85:95] = beyond
+    return dataclasses.replace(snapshot, traversable=grid)
+
+
+def test_the_c_frontier_does_not_stop_beside_a_frontier_f_misses_along_a_wall():
+    """F stays below zero along the strip, and the grid's 32-cell region there is no door;
+    the space beyond is unknown on the COM too: the C-frontier method does not stop, it sends
+    the robot to the door, whence the look shows the space beyond."""
+    snapshot = strip_past_the_door()
     assert frontier_map(snapshot.prob, snapshot.prob_occ, snapshot.resolution).max() < 0.6
     plan = Explorer(ExplorerConfig(method="gp")).plan(snapshot, ROBOT)
     assert plan.done is None and plan.goal is not None
     assert 7.2 <= plan.goal[0] <= 8.2 and DOOR[0] * RES <= plan.goal[1] <= DOOR[1] * RES
+
+
+def test_the_c_frontier_stops_where_the_com_reads_the_space_beyond_such_a_frontier():
+    """The same strip, where the COM reads the space beyond it as the free GP reads a block's
+    inside through its seen faces (Λ 0.2, Λo 0.7), unknown on the costmap grid: an unseen face,
+    not space to explore, and the run ends."""
+    snapshot = strip_past_the_door(beyond=(0.2, 0.7))
+    assert frontier_map(snapshot.prob, snapshot.prob_occ, snapshot.resolution).max() < 0.6
+    plan = Explorer(ExplorerConfig(method="gp")).plan(snapshot, ROBOT)
+    assert plan.goal is None and plan.done == "frontiers_exhausted"
 
 
 def with_wall_hits(snapshot, *extra):
