@@ -517,7 +517,6 @@ def test_a_door_seen_edge_on_is_explored_where_the_obstacle_gp_joins_its_jambs()
     assert 7.2 <= plan.goal[0] <= 8.2 and 3.6 <= plan.goal[1] <= 4.4
 
 
-
 def strip_past_the_door(beyond=None):
     """Past the right door the robot saw a 0.3 m strip of floor along the wall's outer face,
     3.2 m long, unknown on the costmap grid beyond it (x > 8.5 m). The COM reads such a strip
