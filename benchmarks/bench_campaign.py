@@ -56,7 +56,7 @@ def main() -> None:
     pool_wall = time.perf_counter() - tic
 
     def runs(campaign):
-        return [{k: v for k, v in m.items() if k != "wall_time_s"}
+        return [{k: v for k, v in m.items() if k not in ("wall_time_s", "onboard_time_s")}
                 for m in results(campaign)[world.name][args.method]]
 
     print(f"{args.runs} {args.method} runs on {args.world} ({args.max_steps} steps, poses {args.poses}), "

@@ -253,12 +253,15 @@ def run_episode(world: World, start: gtsam.Pose2, config: EpisodeConfig | None =
     dt = 1.0 / c.lidar.rate_hz
     reason = "step_budget"
     tic = time.perf_counter()
+    onboard = 0.0       # the stack's own time: the robot's cost, without the evaluator's sampling
     bar = tqdm(total=c.max_steps, desc=f"explore {world.name} ({c.stack.explorer.method})",
                unit="scan", disable=not progress)
     for step in range(c.max_steps):
         t = step * dt
         scan = lidar.scan(world, robot.pose, t)
+        before = time.perf_counter()
         out = stack.step(odometry.pose, scan, truth=robot.pose)
+        onboard += time.perf_counter() - before
         result.stamps.append(t)
         result.truth.append(robot.pose)
         result.estimate.append(out.pose)
@@ -281,7 +284,7 @@ def run_episode(world: World, start: gtsam.Pose2, config: EpisodeConfig | None =
     if recorder is not None:
         recorder.finish(steps - 1, stack, result.estimate[-1])
         result.frames = recorder.frames
-    result.metrics = _metrics(result, evaluator, robot, seed, start, reason, steps * dt, wall)
+    result.metrics = _metrics(result, evaluator, robot, seed, start, reason, steps * dt, wall, onboard)
     return result
 
 
@@ -295,8 +298,9 @@ def run_state(stack: Stack, curve: list) -> str:
 
 
 def _metrics(result: EpisodeResult, evaluator: Evaluator, robot: Robot, seed: int,
-             start: gtsam.Pose2, reason: str, sim_time: float, wall: float) -> dict:
-    """metrics.json of a run."""
+             start: gtsam.Pose2, reason: str, sim_time: float, wall: float, onboard: float) -> dict:
+    """metrics.json of a run: ``wall`` is the run's wall time (s), ``onboard`` the part of it
+    spent in the stack (the robot's own cost, without the simulator and the evaluator)."""
     c, stack = result.config, result.stack
     curve = np.array(result.curve)
     steps = len(result.stamps)
@@ -314,6 +318,7 @@ def _metrics(result: EpisodeResult, evaluator: Evaluator, robot: Robot, seed: in
         "travel_distance_m": robot.distance,
         "sim_time_s": sim_time,
         "wall_time_s": wall,
+        "onboard_time_s": onboard,
         "keyframes": stack.keyframes,
         "loop_closures": stack.loops,
         "regenerations": stack.regenerations,

@@ -91,7 +91,7 @@ def test_explore_writes_every_result(tmp_path, method):
                                  "--max-steps", "400", "--seed", "2", "--method", method, "--out", str(out)])
     assert result.exit_code == 0, result.output
     metrics = json.loads((out / "metrics.json").read_text())
-    for key in ("start", "travel_distance_m", "sim_time_s", "wall_time_s", "steps", "keyframes",
+    for key in ("start", "travel_distance_m", "sim_time_s", "wall_time_s", "onboard_time_s", "steps", "keyframes",
                 "loop_closures", "regenerations", "final_map_entropy_nats", "entropy_rate_nats_per_step",
                 "coverage", "auc", "ate_rmse_m", "collisions", "termination_reason"):
         assert key in metrics, key
@@ -425,7 +425,7 @@ def test_rerun_runs_a_run_again_from_its_folder_and_figures_redraws_it(tmp_path)
     result = runner.invoke(app, ["rerun", str(first), "--out", str(again)])
     assert result.exit_code == 0, result.output
     b = json.loads((again / "metrics.json").read_text())
-    assert a.pop("wall_time_s") > 0 and b.pop("wall_time_s") > 0
+    assert a.pop("wall_time_s") > a.pop("onboard_time_s") > 0 and b.pop("wall_time_s") > b.pop("onboard_time_s") > 0
     assert a == b and a["steps"] == 30 and a["start"] == [1.0, 1.5, 0.3] and a["seed"] == 5
     assert (again / "figures" / "animation.gif").exists()                 # the configuration's animate_every
     result = runner.invoke(app, ["rerun", str(first), "--out", str(first)])

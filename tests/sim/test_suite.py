@@ -146,10 +146,11 @@ def test_starts_on_a_real_floor_plan_are_reachable_and_clear():
 
 
 def fabricated(world, method, seed, travel, coverage=0.995, reason="frontiers_exhausted", at99=None,
-               missed=0.0, collisions=0, wall=10.0, steps=1000, area=300.0):
+               missed=0.0, collisions=0, wall=10.0, steps=1000, area=300.0, onboard=None):
     from sim.episode import stop_failed
 
-    return {"world": world, "method": method, "seed": seed, "crashed": False, "metrics": {
+    own = {} if onboard is None else {"onboard_time_s": onboard}
+    return {"world": world, "method": method, "seed": seed, "crashed": False, "metrics": {**own,
         "travel_distance_m": travel, "coverage": coverage, "termination_reason": reason,
         "travel_at_coverage_m": {"0.90": None, "0.95": None, "0.99": at99}, "missed_area_m2": missed,
         "stop_failed": stop_failed(reason, missed), "collisions": collisions, "ate_rmse_m": 0.1,
@@ -167,7 +168,7 @@ def outcomes():
         fabricated("cave.png", "grid", 0, 50.0, at99=50.0),                               # ok, tail 0
         fabricated("cave.png", "grid", 1, 100.0, coverage=0.97, reason="step_budget", collisions=2),
         fabricated("big.yaml", "gp", 0, 300.0, coverage=0.992, reason="no_reachable_goal", missed=4.0,
-                   at99=280.0, wall=30.0, steps=2000, area=2500.0),                       # failed stop
+                   at99=280.0, wall=40.0, onboard=30.0, steps=2000, area=2500.0),         # failed stop
         crashed("big.yaml", "gp", 1),
         fabricated("big.yaml", "grid", 0, 200.0, coverage=0.999, reason="no_reachable_goal", at99=190.0),
         crashed("big.yaml", "grid", 1),
@@ -184,7 +185,8 @@ def test_the_summary_counts_successes_failures_and_pairs_the_travel():
     assert s["pairs"] == 3 and s["travel_ratio"] == pytest.approx((1.2 + 0.8 + 1.5) / 3)
     # tails of the runs that reached 99 %: 6/60, 20/80, 0, 20/300, 10/200
     assert s["tail_share"] == pytest.approx((0.1 + 0.25 + 0.0 + 20 / 300 + 0.05) / 5)
-    # GP cost per scan: big (the largest area) 15 ms against the Stage cave's (10 + 12) / 2 ms
+    # GP cost per scan: big (the largest area) 15 ms (its stack's 30 s, not its 40 s of wall time)
+    # against the Stage cave's (10 + 12) / 2 ms (wall time: runs that did not record the stack's)
     assert s["largest"] == "big.yaml" and s["largest_ms_per_scan"] == pytest.approx(15.0)
     assert s["reference"] == "cave.png" and s["reference_ms_per_scan"] == pytest.approx(11.0)
     line = summary_line(s)
