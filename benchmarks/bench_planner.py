@@ -82,8 +82,10 @@ def finished_map(name: str, data: Path, hits_per_cell: int, rng: np.random.Gener
 
 def growing(snapshot: MapSnapshot, replans: int):
     """``snapshot`` for each of ``replans`` replans, the last with all its hits, each before it
-    with ``SCAN_HITS`` fewer."""
-    hits = snapshot.hits
+    with ``SCAN_HITS`` fewer: read-only views of one buffer, as ``LogOddsGrid.hits`` hands
+    them out."""
+    hits = snapshot.hits.copy()
+    hits.flags.writeable = False
     for k in range(replans - 1, -1, -1):
         yield dataclasses.replace(snapshot, hits=hits[:len(hits) - k * SCAN_HITS])
 

@@ -40,7 +40,9 @@ class LogOddsGrid:
         """Forget every update: all cells unknown."""
         self.frame = GridFrame(self.config.resolution)
         self.logodds = np.zeros((0, 0))
-        self._hits: list[np.ndarray] = []     # each update's marked hits, one per half cell
+        # each update's marked hits, one per half cell, appended to a buffer that doubles when
+        # full: ``hits`` hands out views of it, never copies (it is read at every replan)
+        self._hits, self._count = np.zeros((0, 2)), 0
 
     def update(self, pose: gtsam.Pose2, scan: LaserScan, beams: np.ndarray | None = None,
                mark_hits: np.ndarray | None = None) -> None:
@@ -81,7 +83,7 @@ class LogOddsGrid:
             (b0, b1), (a0, a1) = pad
             self.logodds = np.pad(self.logodds, ((b0, a0), (b1, a1)))
         marked = ends[is_hit]
-        self._hits.append(marked[voxel_thin(marked, step)])
+        self._append_hits(marked[voxel_thin(marked, step)])
         hit_flat = np.unique(self.frame.flat(hit_cells))
         free_flat = np.setdiff1d(np.unique(self.frame.flat(free_cells)), hit_flat, assume_unique=True)
         L = self.logodds.reshape(-1)
@@ -117,10 +119,23 @@ class LogOddsGrid:
         """The grid for the explorer (no obstacle map of its own), with the hits it marked."""
         return MapSnapshot(self.prob(), None, self.frame.origin, self.frame.resolution, self.hits())
 
+    def _append_hits(self, new: np.ndarray) -> None:
+        end = self._count + len(new)
+        if end > len(self._hits):
+            grown = np.empty((max(end, 2 * len(self._hits), 1024), 2))
+            grown[:self._count] = self._hits[:self._count]
+            self._hits = grown
+        self._hits[self._count:end] = new
+        self._count = end
+
     def hits(self) -> np.ndarray:
         """(k, 2) the marked hits of every update since the last reset (one per half cell of
-        each update), meters."""
-        return np.vstack(self._hits) if self._hits else np.zeros((0, 2))
+        each update), meters: a read-only view, whose points never change (later updates
+        write past it; a reset starts a new buffer), so that a cache of them
+        (``exploration.costmap.extends``) sees at once that the next view begins with it."""
+        view = self._hits[:self._count]
+        view.flags.writeable = False
+        return view
 
     def sample(self, grid: np.ndarray, xy: np.ndarray) -> np.ndarray:
         """Values of ``grid`` (h, w) at world points ``xy`` (..., 2); 0.5 off the grid."""

@@ -146,10 +146,22 @@ def test_distance_to_points_is_the_nearest_point_s_distance_within_the_bound(bou
     assert np.isinf(distance_to_points(np.zeros((0, 2)), origin, res, shape, bound)).all()
 
 
-def test_distance_to_points_of_hits_that_grow_then_move_is_the_brute_force_one():
+def growing_views(points: np.ndarray, sizes) -> list[np.ndarray]:
+    """Read-only views of the first ``sizes`` of ``points`` in one buffer, as
+    ``LogOddsGrid.hits`` hands them out."""
+    buffer = np.array(points)
+    views = [buffer[:n] for n in sizes]
+    for view in views:
+        view.flags.writeable = False
+    return views
+
+
+@pytest.mark.parametrize("given", ["arrays", "views"])
+def test_distance_to_points_of_hits_that_grow_then_move_is_the_brute_force_one(given):
     """A map's hits grow by each update's, and move at a rebuild: each call, on the same grid
     and bound, equals the brute-force minimum over the points it is given (what earlier calls
-    scattered is reused only where it is the start of them)."""
+    scattered is reused only where it is the start of them), given as new arrays, or as
+    read-only views of a growing buffer (taken as they are, not copied)."""
     rng = np.random.default_rng(4)
     origin, res, shape, bound = np.array([0.0, 0.0]), 0.1, (30, 40), 0.6
     yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
@@ -159,36 +171,33 @@ def test_distance_to_points_of_hits_that_grow_then_move_is_the_brute_force_one()
         d = np.linalg.norm(centres[:, :, None] - points[None, None], axis=3).min(axis=2)
         return np.where(d < bound, d, np.inf)
 
-    points = rng.uniform([0.0, 0.0], [4.0, 3.0], (50, 2))
-    for step in range(4):
-        if step == 2:                                   # a rebuild: every hit moved
-            points = points + [0.13, -0.07]
-        else:
-            points = np.vstack([points, rng.uniform([0.0, 0.0], [4.0, 3.0], (30, 2))])
+    for points in grown_then_moved(rng, given):
         assert np.allclose(distance_to_points(points, origin, res, shape, bound), brute(points),
                            rtol=0, atol=1e-12)
-    fewer = points[:40]                                  # a shorter map (another run's)
-    assert np.allclose(distance_to_points(fewer, origin, res, shape, bound), brute(fewer),
-                       rtol=0, atol=1e-12)
 
 
-def test_clearest_points_climb_to_the_point_farthest_from_the_hits():
-    """Cells of a 0.56 m passage between two walls of noisy hits, and cells in the open: the
-    point found lies in its cell, its clearance is its brute-force distance to the nearest hit
-    (inf at ``bound`` or more), and it is the optimum of the same pattern search run on a
-    k-d tree (the best of 3 x 3 lattices of steps a third, a ninth and a 27th of a cell)."""
-    rng = np.random.default_rng(5)
-    res, origin, bound, shape = 0.1, np.zeros(2), 0.6, (40, 40)
-    ys = rng.uniform(0.0, 4.0, 800)
-    hits = np.vstack([np.column_stack([rng.normal(1.72, 0.01, 400), ys[:400]]),
-                      np.column_stack([rng.normal(2.28, 0.01, 400), ys[400:]])])
-    cells = np.array([(ix, iy) for ix in range(17, 24) for iy in (10, 20, 30)] + [(5, 5), (35, 35)])
-    shift, clearance = clearest_points(hits, origin, res, shape, cells, bound)
+def grown_then_moved(rng: np.random.Generator, given: str) -> list[np.ndarray]:
+    """Points in 0..4 x 0..3 m as a map hands them out: grown twice, moved (a rebuild), grown
+    again, then fewer (another run's map); as new arrays, or as views of one buffer until the
+    rebuild and of another after it."""
+    first = rng.uniform([0.0, 0.0], [4.0, 3.0], (110, 2))
+    moved = np.vstack([first + [0.13, -0.07], rng.uniform([0.0, 0.0], [4.0, 3.0], (30, 2))])
+    if given == "arrays":
+        return [first[:50].copy(), first[:80].copy(), first.copy(), moved[:110].copy(), moved.copy(),
+                moved[:40].copy()]
+    return growing_views(first, (50, 80, 110)) + growing_views(moved, (110, 140, 40))
+
+
+def assert_clearest(hits: np.ndarray, origin: np.ndarray, res: float, bound: float,
+                    cells: np.ndarray, shift: np.ndarray, clearance: np.ndarray) -> None:
+    """``clearest_points``' answer for ``cells``: the point found lies in its cell, its
+    clearance is its brute-force distance to the nearest hit (inf at ``bound`` or more), and it
+    is the optimum of the same pattern search run on a k-d tree (the best of 3 x 3 lattices of
+    steps a third, a ninth and a 27th of a cell)."""
     centres = origin + res * cells
     assert np.all(np.abs(shift) <= res / 2 + 1e-12)
     brute = np.linalg.norm(centres[:, None] + shift[:, None] - hits[None], axis=2).min(axis=1)
     assert np.allclose(np.where(brute < bound, brute, np.inf), clearance, rtol=0, atol=1e-12)
-    assert np.isinf(clearance[-2:]).all() and np.isfinite(clearance[:-2]).all()
     tree, lattice = cKDTree(hits), np.array([(i, j) for j in (-1, 0, 1) for i in (-1, 0, 1)])
     for centre, found in zip(centres, clearance):
         best, step = centre, res / 3
@@ -200,8 +209,37 @@ def test_clearest_points_climb_to_the_point_farthest_from_the_hits():
                 best, value = points[np.argmax(d)], d.max()
             step /= 3
         assert found == pytest.approx(value, abs=1e-12)
+
+
+def test_clearest_points_climb_to_the_point_farthest_from_the_hits():
+    """Cells of a 0.56 m passage between two walls of noisy hits, and cells in the open: the
+    pattern search's optimum (``assert_clearest``), inf in the open, and near the middle line
+    half the passage."""
+    rng = np.random.default_rng(5)
+    res, origin, bound, shape = 0.1, np.zeros(2), 0.6, (40, 40)
+    ys = rng.uniform(0.0, 4.0, 800)
+    hits = np.vstack([np.column_stack([rng.normal(1.72, 0.01, 400), ys[:400]]),
+                      np.column_stack([rng.normal(2.28, 0.01, 400), ys[400:]])])
+    cells = np.array([(ix, iy) for ix in range(17, 24) for iy in (10, 20, 30)] + [(5, 5), (35, 35)])
+    shift, clearance = clearest_points(hits, origin, res, shape, cells, bound)
+    assert_clearest(hits, origin, res, bound, cells, shift, clearance)
+    assert np.isinf(clearance[-2:]).all() and np.isfinite(clearance[:-2]).all()
     middle = clearance[[i for i, (ix, _) in enumerate(cells[:-2]) if ix == 20]]
     assert np.all(middle > 0.24)                                 # half the passage, less noise
+
+
+@pytest.mark.parametrize("given", ["arrays", "views"])
+def test_clearest_points_of_hits_that_grow_then_move_are_the_optimum_over_them(given):
+    """Each call on the same grid, with hits that grow, move and shrink as a map's do, finds
+    the optimum over the hits it is given (what earlier calls sorted is reused only where it is
+    the start of them), at every cell of the grid, some with hits off the grid beside them."""
+    rng = np.random.default_rng(6)
+    res, origin, bound, shape = 0.1, np.array([0.5, 0.5]), 0.3, (20, 30)
+    cells = np.array([(ix, iy) for ix in range(0, 30, 3) for iy in range(0, 20, 3)])
+    for hits in grown_then_moved(rng, given):
+        shift, clearance = clearest_points(hits, origin, res, shape, cells, bound)
+        assert_clearest(hits, origin, res, bound, cells, shift, clearance)
+        assert np.isfinite(clearance).any() and np.isinf(clearance).any()
 
 
 @pytest.mark.parametrize("resolution, distance", [(0.1, 0.0), (0.1, 0.1), (0.1, 0.25), (0.05, 0.3)])

@@ -28,6 +28,35 @@ def test_grid_frees_the_cells_a_beam_crosses_and_occupies_its_hit_cell():
     assert grid.logodds.max() == pytest.approx(10.0) and grid.logodds.min() == pytest.approx(-10.0)
 
 
+def test_grid_hits_are_every_update_s_hit_one_per_half_cell_in_views_that_never_change():
+    """Each update marks its hits one per half cell (0.05 m voxel): 360 beams ending 5.2 cm
+    apart on a circle of radius 3 m (18.8 m long; a voxel spans at most 7.1 cm of it) give
+    between 266 and 360. ``hits`` hands out read-only
+    views of a buffer: an earlier view keeps its points through later updates (past the
+    buffer's growth) and a reset, and the latest holds every update's in order."""
+    grid = LogOddsGrid(LogOddsConfig())
+    angles = np.deg2rad(np.arange(360.0))
+    scan = LaserScan(np.full(360, 3.0), angles, 8.0)
+    views, poses = [], [gtsam.Pose2(0.4 * k, 0.0, 0.0) for k in range(5)]
+    for pose in poses:
+        grid.update(pose, scan)
+        views.append(grid.hits())
+    first = views[0].copy()
+    sizes = np.array([0] + [len(v) for v in views])
+    assert np.all(np.diff(sizes) >= 266) and np.all(np.diff(sizes) <= 360) and sizes[-1] > 1024
+    for k, pose in enumerate(poses):
+        ring = views[-1][sizes[k]:sizes[k + 1]] - [pose.x(), pose.y()]
+        assert np.allclose(np.hypot(ring[:, 0], ring[:, 1]), 3.0, atol=1e-9)
+    assert all(not v.flags.writeable for v in views)
+    with pytest.raises(ValueError):
+        views[-1][0] = 0.0
+    grid.reset()
+    grid.update(gtsam.Pose2(9.0, 9.0, 0.0), scan)
+    assert np.array_equal(views[0], first) and np.array_equal(views[-1][:len(first)], first)
+    ring = grid.hits() - [9.0, 9.0]
+    assert 266 <= len(ring) <= 360 and np.allclose(np.hypot(ring[:, 0], ring[:, 1]), 3.0, atol=1e-9)
+
+
 @pytest.mark.parametrize("protocol", ["points", "beams"])
 def test_holdout_splits_each_scan_into_disjoint_train_and_test(protocol):
     rng = np.random.default_rng(0)
