@@ -72,8 +72,9 @@ class Plan:
     ``goal`` (2,) and ``path`` (k, 2) are in meters; ``goal`` is None when exploration is
     over, and ``done`` then says why: ``frontiers_exhausted`` (no significant frontier left)
     or ``no_reachable_goal`` (frontiers remain, none reachable). ``clusters`` are the ranked
-    frontier clusters of a new goal choice (empty when the goal was kept); ``frontier`` is the
-    map the goal came from: the C-frontier map F (gp), or 1 on the grid's frontier cells (grid).
+    frontier clusters of a new goal choice, and ``frontier`` the map it was made on: the
+    C-frontier map F (gp), or 1 on the grid's frontier cells (grid); a plan that kept its goal
+    has neither (empty, None).
     """
 
     goal: np.ndarray | None
@@ -136,16 +137,28 @@ class Explorer:
 
     def plan(self, snapshot: MapSnapshot, pose: gtsam.Pose2) -> Plan:
         """A goal and a path for the robot at ``pose`` on this map snapshot: keep the goal while
-        its frontier remains and its path is open, else choose the best frontier cluster."""
-        reachable = self._reachable(snapshot, pose)
+        its frontier remains and its path is open, else choose the best frontier cluster.
+
+        A C-frontier goal is kept, or not, on the map round its target alone (F there,
+        ``CFrontier.cells_near``) and a search that ends at the goal (``paths.distance_field``
+        ``until``), as the whole map would keep it: a kept goal's plan (most plans) then costs
+        a fraction of a new choice on a big map."""
+        costmap = self._passable(snapshot)
+        local = self.goal is not None and self.source is self.method and isinstance(self.method, CFrontier)
+        if local:
+            cells = self.method.cells_near(snapshot, self._targets(), self.config.goals.reach)
+            reachable = self._reachable(snapshot, pose, costmap, until=self.goal)
+            if self._goal_still_valid(cells, reachable):
+                return Plan(self.goal, reachable.path(self.goal))
+        reachable = self._reachable(snapshot, pose, costmap)
         frontier = self.method.frontier(snapshot)
-        if self.goal is not None:
+        if self.goal is not None and not local:
             source = frontier if self.source is self.method else self.source.keeping(snapshot)
-            if self._goal_still_valid(source, reachable):
-                return Plan(self.goal, reachable.path(self.goal), frontier=frontier.values)
+            if self._goal_still_valid(source.cells, reachable):
+                return Plan(self.goal, reachable.path(self.goal))
         plan = self._choose(snapshot, frontier, reachable)
         if plan.done == "no_reachable_goal" and self._reopen(snapshot):
-            plan = self._choose(snapshot, frontier, self._reachable(snapshot, pose))
+            plan = self._choose(snapshot, frontier, self._reachable(snapshot, pose, costmap))
         return plan
 
     def _reopen(self, snapshot: MapSnapshot) -> bool:
@@ -194,20 +207,33 @@ class Explorer:
         return Plan(self.goal, reachable.path(self.goal), new_goal=True, clusters=clusters,
                     frontier=frontier.values)
 
-    def _reachable(self, snapshot: MapSnapshot, pose: gtsam.Pose2) -> Reachable:
-        """Path lengths from the robot over the passable cells of the method's costmap."""
+    def _passable(self, snapshot: MapSnapshot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``costmap.passable`` on the method's costmap: (ok, cost, offset)."""
+        return passable(evidence(snapshot), snapshot.resolution, self.config.robot_radius,
+                        self.method.costmap, snapshot.hits, np.asarray(snapshot.origin, float),
+                        snapshot.trail)
+
+    def _reachable(self, snapshot: MapSnapshot, pose: gtsam.Pose2,
+                   costmap: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+                   until: np.ndarray | None = None) -> Reachable:
+        """Path lengths from the robot over the ``costmap`` (``_passable``'s, computed when not
+        given) with the robot's footprint and without the closed stretches; with ``until``
+        (2,) m, only as far as that point's cell (``distance_field``), without the lengths to
+        places near each cell (``near`` None)."""
         c = self.config
         origin, resolution = np.asarray(snapshot.origin, float), snapshot.resolution
         here = np.array([pose.x(), pose.y()])
         start = np.round((here - origin) / resolution).astype(int)
-        ok, cost, offset = passable(evidence(snapshot), resolution, c.robot_radius,
-                                    self.method.costmap, snapshot.hits, origin, snapshot.trail)
+        ok, cost, offset = self._passable(snapshot) if costmap is None else costmap
         h, w = ok.shape
         ok = (ok | self._footprint(snapshot, here, start)) & ~self._closed_cells(ok.shape, origin, resolution)
-        dist, parent = distance_field(ok, np.clip(start, 0, [w - 1, h - 1]), resolution, cost)
+        goal = None if until is None else np.round((until - origin) / resolution).astype(int)
+        inside = goal is not None and 0 <= goal[0] < w and 0 <= goal[1] < h
+        dist, parent = distance_field(ok, np.clip(start, 0, [w - 1, h - 1]), resolution, cost,
+                                      until=goal if inside else None)
         reach = max(1, round(c.goals.reach / resolution))
-        return Reachable(dist, parent, near_distance(dist, reach), reach, origin, resolution, here,
-                         offset)
+        return Reachable(dist, parent, None if until is not None else near_distance(dist, reach), reach,
+                         origin, resolution, here, offset)
 
     def _closed_cells(self, shape: tuple[int, int], origin: np.ndarray, resolution: float) -> np.ndarray:
         """(h, w) bool: the cells of the closed stretches (``stuck``) and the cells beside them."""
@@ -252,13 +278,17 @@ class Explorer:
         disc[iy[gap < needed], ix[gap < needed]] = False
         return disc
 
-    def _goal_still_valid(self, frontier: Frontier, reachable: Reachable) -> bool:
-        """The goal is still reachable and frontier points remain near its target."""
-        if not np.isfinite(reachable.distance_to(self.goal)) or len(frontier.cells) == 0:
-            return False
-        points = reachable.origin + reachable.resolution * frontier.cells
+    def _targets(self) -> np.ndarray:
+        """(k, 2) m, the points a kept goal's frontier is looked for near: the goal and (up to
+        32 of) the frontier points it serves."""
         targets = np.vstack([self.target, self.goal[None]])
-        near = np.min(np.linalg.norm(points[:, None, :] - targets[None, :: max(1, len(targets) // 32)],
-                                     axis=2), axis=1)
+        return targets[::max(1, len(targets) // 32)]
+
+    def _goal_still_valid(self, cells: np.ndarray, reachable: Reachable) -> bool:
+        """The goal is still reachable and frontier ``cells`` (n, 2) remain near its target."""
+        if not np.isfinite(reachable.distance_to(self.goal)) or len(cells) == 0:
+            return False
+        points = reachable.origin + reachable.resolution * cells
+        near = np.min(np.linalg.norm(points[:, None, :] - self._targets()[None], axis=2), axis=1)
         need = max(1, min(self.config.goals.min_points, len(self.target)) // 2)
         return bool(np.count_nonzero(near < self.config.goals.reach) >= need)

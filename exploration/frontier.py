@@ -38,3 +38,20 @@ def frontier_map(prob: np.ndarray, prob_occ: np.ndarray, resolution: float, beta
         prob = ndimage.gaussian_filter(prob, sigma, mode="nearest")
         prob_occ = ndimage.gaussian_filter(prob_occ, sigma, mode="nearest")
     return l1_gradient(prob, resolution) - beta * (l1_gradient(prob_occ, resolution) + prob_occ - 0.5)
+
+
+def frontier_map_within(prob: np.ndarray, prob_occ: np.ndarray, resolution: float,
+                        rows: tuple[int, int], cols: tuple[int, int], beta: float = 2.5,
+                        smoothing: float = 0.1) -> np.ndarray:
+    """``frontier_map`` on the cells ``rows`` x ``cols`` (half-open index ranges) of the
+    grids alone, equal to the whole map's there: computed on them and the margin the
+    smoothing (scipy's reach, 4 σ) and the central differences read, the grids' own edges
+    where the margin passes them."""
+    sigma = smoothing / resolution
+    margin = int(4.0 * sigma + 0.5) + 2 if smoothing > 0 else 2
+    h, w = np.shape(prob)
+    y0, y1 = max(rows[0] - margin, 0), min(rows[1] + margin, h)
+    x0, x1 = max(cols[0] - margin, 0), min(cols[1] + margin, w)
+    values = frontier_map(np.asarray(prob)[y0:y1, x0:x1], np.asarray(prob_occ)[y0:y1, x0:x1],
+                          resolution, beta, smoothing)
+    return values[rows[0] - y0:rows[1] - y0, cols[0] - x0:cols[1] - x0]

@@ -17,7 +17,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from exploration.costmap import CostmapConfig, classify, distance_to_points
-from exploration.frontier import frontier_map
+from exploration.frontier import frontier_map, frontier_map_within
 from exploration.gain import visible_unknown_area
 from exploration.goals import Blacklist, FrontierCluster, extract_goals
 from exploration.grid_frontier import grid_frontiers, region_size
@@ -104,6 +104,23 @@ class CFrontier:
         return Frontier(values, np.column_stack([ix, iy]),
                         evidence=look_map(snapshot, self.costmap, c.robot_radius),
                         blocked=evidence(snapshot) > self.costmap.occupied_above)
+
+    def cells_near(self, snapshot: MapSnapshot, points: np.ndarray, reach: float) -> np.ndarray:
+        """(n, 2) the cells (ix, iy) of ``frontier``'s above the threshold in the box round
+        ``points`` (k, 2), meters, widened by ``reach`` m and a cell: F there alone
+        (``frontier_map_within``), as the whole map's."""
+        c, resolution = self.config, snapshot.resolution
+        h, w = snapshot.prob.shape
+        at = (np.asarray(points, float) - np.asarray(snapshot.origin, float)) / resolution
+        pad = reach / resolution + 1
+        x0, y0 = np.maximum(np.floor(at.min(axis=0) - pad).astype(int), 0)
+        x1, y1 = np.minimum(np.ceil(at.max(axis=0) + pad).astype(int) + 1, [w, h])
+        if x0 >= x1 or y0 >= y1:
+            return np.zeros((0, 2), int)
+        values = frontier_map_within(snapshot.prob, snapshot.prob_occ, resolution, (y0, y1), (x0, x1),
+                                     c.beta, c.smoothing)
+        iy, ix = np.nonzero(values > c.goals.threshold)
+        return np.column_stack([ix + x0, iy + y0])
 
     def clusters(self, frontier: Frontier, reachable: Reachable, blacklist: Blacklist,
                  rng: np.random.Generator) -> list[FrontierCluster]:

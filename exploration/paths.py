@@ -17,7 +17,7 @@ _STEPS = np.array([[1, 0], [-1, 0], [0, 1], [0, -1], [1, 1], [1, -1], [-1, 1], [
 
 
 @numba.njit(cache=True)
-def _dijkstra(passable, cost, start_iy, start_ix, cell, steps, dist, length, parent):
+def _dijkstra(passable, cost, start_iy, start_ix, cell, steps, dist, length, parent, until):
     h, w = passable.shape
     dist[start_iy, start_ix] = 0.0
     length[start_iy, start_ix] = 0.0
@@ -27,6 +27,8 @@ def _dijkstra(passable, cost, start_iy, start_ix, cell, steps, dist, length, par
         iy, ix = flat // w, flat % w
         if d > dist[iy, ix]:
             continue
+        if flat == until:       # settled: its path is final
+            break
         for k in range(steps.shape[0]):
             ny, nx = iy + steps[k, 1], ix + steps[k, 0]
             if ny < 0 or nx < 0 or ny >= h or nx >= w or not passable[ny, nx]:
@@ -45,9 +47,11 @@ def _dijkstra(passable, cost, start_iy, start_ix, cell, steps, dist, length, par
 
 
 def distance_field(passable: np.ndarray, start: tuple[int, int], cell: float,
-                   cost: np.ndarray | None = None):
+                   cost: np.ndarray | None = None, until: tuple[int, int] | None = None):
     """Cheapest paths from ``start`` = (ix, iy) over ``passable`` cells (8-connected), and
     their lengths: a step costs its length weighted by the mean ``cost`` of its two cells.
+    With ``until`` (ix, iy), the search stops once that cell's path is final: its length and
+    path are those of the whole field, the cells not yet settled may read longer or inf.
 
     Args:
         passable: (h, w) bool, cells the robot's centre may occupy.
@@ -71,7 +75,8 @@ def distance_field(passable: np.ndarray, start: tuple[int, int], cell: float,
         raise ValueError(f"cost {cost.shape} and passable {(h, w)} must be grids of the same shape")
     total, dist = np.full((h, w), np.inf), np.full((h, w), np.inf)
     parent = np.full((h, w), -1, dtype=np.int64)
-    _dijkstra(passable, cost, iy, ix, float(cell), _STEPS, total, dist, parent)
+    stop = -1 if until is None else int(until[1]) * w + int(until[0])
+    _dijkstra(passable, cost, iy, ix, float(cell), _STEPS, total, dist, parent, stop)
     return dist, parent
 
 

@@ -216,6 +216,21 @@ def test_goal_serves_the_opening_and_is_kept_while_its_frontier_remains():
     assert elsewhere.new_goal and elsewhere.goal[0] < 5.0
 
 
+@pytest.mark.parametrize("points, some", [([[8.3, 4.0]], True), ([[8.8, 3.5], [1.0, 4.3]], True),
+                                          ([[0.2, 0.2]], False), ([[40.0, 40.0]], False)])
+def test_the_c_frontier_s_cells_near_points_are_the_whole_map_s_there(points, some):
+    """The cells a kept goal is checked by (by an opening, by both, on the map's corner, off the
+    map): frontier cells of the whole map, and every one of them within reach of the points."""
+    snapshot, method = two_openings(), CFrontier(ExplorerConfig())
+    whole = method.frontier(snapshot).cells
+    near = method.cells_near(snapshot, np.array(points), 0.6)
+    assert {tuple(c) for c in near} <= {tuple(c) for c in whole}
+    centres = snapshot.origin + RES * whole
+    within = np.linalg.norm(centres[:, None] - np.array(points)[None], axis=2).min(axis=1) < 0.6
+    assert {tuple(c) for c in whole[within]} <= {tuple(c) for c in near}
+    assert within.any() == some
+
+
 def test_goal_cut_off_by_a_new_wall_is_dropped():
     """A wall across the room (x = 5 m) between the robot and its goal: the goal is not kept,
     and the frontier past the door is now out of reach."""

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from exploration.frontier import frontier_map, l1_gradient
+from exploration.frontier import frontier_map, frontier_map_within, l1_gradient
 
 RES = 0.1
 
@@ -54,3 +54,21 @@ def test_units_are_per_meter():
 def test_shape_mismatch_is_rejected():
     with pytest.raises(ValueError, match="same shape"):
         frontier_map(np.zeros((3, 3)), np.zeros((3, 4)), RES)
+
+
+@pytest.mark.parametrize("smoothing", [0.0, 0.1, 0.25])
+def test_the_frontier_map_within_a_box_is_the_whole_map_s_there(smoothing):
+    """Boxes inside the map, on its edges and corners, one cell and the whole map: F computed
+    on a box and its margin equals the whole map's F there, to the last bit (the smoothing
+    and differences read the same cells); without the margin (the box alone) it does not."""
+    rng = np.random.default_rng(8)
+    prob = np.clip(rng.random((70, 90)) * 0.3 + (rng.random((70, 90)) < 0.4) * 0.5, 0.0, 1.0)
+    prob_occ = rng.random((70, 90))
+    whole = frontier_map(prob, prob_occ, RES, smoothing=smoothing)
+    boxes = [((20, 35), (30, 52)), ((0, 9), (0, 12)), ((61, 70), (80, 90)), ((0, 70), (44, 45)),
+             ((33, 34), (51, 52)), ((0, 70), (0, 90))]
+    for rows, cols in boxes:
+        box = frontier_map_within(prob, prob_occ, RES, rows, cols, smoothing=smoothing)
+        assert np.array_equal(box, whole[rows[0]:rows[1], cols[0]:cols[1]]), (rows, cols)
+    alone = frontier_map(prob[20:35, 30:52], prob_occ[20:35, 30:52], RES, smoothing=smoothing)
+    assert not np.allclose(alone, whole[20:35, 30:52])

@@ -81,3 +81,21 @@ def test_the_best_cell_near_a_frontier_cell_sees_it():
     assert tuple(best_cell_near(dist, (10, 10), 3)) == (7, 10)
     assert tuple(best_cell_near(dist, (10, 10), 3, blocked)) == (8, 8)
     assert tuple(best_cell_near(dist, (10, 10), 3, np.ones((20, 20), dtype=bool))) == (7, 10)
+
+
+def test_a_field_until_a_cell_gives_that_cell_its_whole_field_length_and_path():
+    """Random walls and costs: the search that stops at a cell gives it the length and path
+    of the whole field, and has stopped short (cells farther along read inf that the whole
+    field reaches)."""
+    rng = np.random.default_rng(9)
+    passable = rng.random((60, 80)) > 0.25
+    cost = 1.0 + 2.0 * rng.random((60, 80))
+    dist, parent = distance_field(passable, (5, 5), 0.1, cost)
+    reached = np.argwhere(np.isfinite(dist))
+    for iy, ix in reached[rng.choice(len(reached), 20, replace=False)]:
+        part, part_parent = distance_field(passable, (5, 5), 0.1, cost, until=(ix, iy))
+        assert part[iy, ix] == dist[iy, ix]
+        assert np.array_equal(path_to(part_parent, (ix, iy)), path_to(parent, (ix, iy)))
+    iy, ix = np.unravel_index(np.argmin(np.where(dist > 0, dist, np.inf)), dist.shape)   # a neighbour
+    near, _ = distance_field(passable, (5, 5), 0.1, cost, until=(ix, iy))
+    assert np.count_nonzero(np.isfinite(near)) <= 9 * 9 < len(reached) // 10      # cells popped first, and theirs
