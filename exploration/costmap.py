@@ -123,14 +123,16 @@ def _clear(free: np.ndarray, occupied: np.ndarray, resolution: float, radius: fl
     # cells whose centre is not clear, but a point of which may be (clearance is 1-Lipschitz),
     # where they could join two regions of centre-clear cells: searched for that point
     maybe = room & ~ok & (to_occupied > clear - config.squeeze - resolution / math.sqrt(2))
-    iy, ix = np.nonzero(maybe & _links(ok, maybe))
+    rooms, _ = ndimage.label(ok, structure=_EIGHT)
+    iy, ix = np.nonzero(maybe & _links(rooms, maybe))
     shift, clearance = clearest_points(hits, origin, resolution, free.shape, np.column_stack([ix, iy]),
                                        bound)
-    to_occupied[iy, ix], offset[iy, ix] = clearance, shift
+    to_occupied[iy, ix] = clearance
     off_centre = np.zeros_like(ok)
     off_centre[iy, ix] = clearance > clear - config.squeeze
-    off_centre &= _links(ok, off_centre)
-    offset[~off_centre] = 0.0
+    off_centre &= _links(rooms, off_centre)
+    through = off_centre[iy, ix]
+    offset[iy[through], ix[through]] = shift[through]
     cost = wall_cost(to_occupied, radius, config)
     cost[off_centre] *= config.off_centre_cost
     return ok | off_centre, cost, offset
@@ -224,19 +226,18 @@ def _scatter_distances(points, x0, y0, resolution, bound, d2):
 
 
 def _links(rooms: np.ndarray, between: np.ndarray) -> np.ndarray:
-    """(h, w) bool: the 8-connected groups of ``between`` cells that touch two or more
-    8-connected groups of ``rooms`` cells: passages (a door whose clear span holds no cell
-    centre), not the rim of one room along its walls."""
-    room, _ = ndimage.label(rooms, structure=_EIGHT)
+    """(h, w) bool: the 8-connected groups of ``between`` cells that touch two or more of the
+    ``rooms`` (h, w), labels of the 8-connected groups of some cells (0: none): passages (a
+    door whose clear span holds no cell centre), not the rim of one room along its walls."""
     link, n = ndimage.label(between, structure=_EIGHT)
     if n == 0:
         return np.zeros_like(between)
-    h, w = room.shape
-    padded = np.pad(room, 1)
-    rooms_n = int(room.max()) + 1
+    padded = np.pad(rooms, 1)
+    rooms_n = int(rooms.max()) + 1
+    iy, ix = np.nonzero(between)
     # each (link group, room group) pair beside one another, as one integer
     pairs = np.unique(np.concatenate([
-        link[between].astype(np.int64) * rooms_n + padded[1 + dy:h + 1 + dy, 1 + dx:w + 1 + dx][between]
+        link[iy, ix].astype(np.int64) * rooms_n + padded[iy + 1 + dy, ix + 1 + dx]
         for dy in (-1, 0, 1) for dx in (-1, 0, 1)]))
     pairs = pairs[pairs % rooms_n > 0]
     touched = np.bincount(pairs // rooms_n, minlength=n + 1)
