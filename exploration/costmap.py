@@ -260,8 +260,8 @@ def clearest_points(points: np.ndarray, origin, resolution: float, shape: tuple[
     cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
     # buckets that can hold a point within bound + a diagonal of a cell's centre, either side
     pad = int(math.ceil((bound + math.sqrt(2.0) * resolution) / resolution)) + 1
-    keys, sorted_points = _SORTED.sorted(np.asarray(points, dtype=float).reshape(-1, 2), origin,
-                                         resolution, shape, pad)
+    keys, sorted_points = _SORTED.by_bucket(np.asarray(points, dtype=float).reshape(-1, 2), origin,
+                                            resolution, shape, pad)
     shift, clearance = np.zeros((len(cells), 2)), np.full(len(cells), np.inf)
     _pattern_search(sorted_points, keys, shape[1] + 2 * pad, pad, float(origin[0]), float(origin[1]),
                     float(resolution), cells, float(bound), levels, shift, clearance)
@@ -272,15 +272,15 @@ class _Sorted:
     """The points of recent ``clearest_points`` calls sorted by the bucket (a cell of the grid
     padded by ``pad`` cells each side) holding them, one per grid and padding. Like
     ``_Scattered``'s fields, a sorting whose points begin the new ones takes the rest in by
-    merging their sorted keys with its own; sorting all 770 000 of office_g's hits at every
-    replan took a quarter of it."""
+    merging their sorted keys with its own: sorting all of office_g's 770 000 hits took a
+    quarter of each of its late replans."""
 
     def __init__(self, size: int = 4):
         self.size = size
         self.sorted_: dict[tuple, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
-    def sorted(self, points: np.ndarray, origin, resolution: float, shape: tuple[int, int],
-               pad: int) -> tuple[np.ndarray, np.ndarray]:
+    def by_bucket(self, points: np.ndarray, origin, resolution: float, shape: tuple[int, int],
+                  pad: int) -> tuple[np.ndarray, np.ndarray]:
         """(m,) the buckets' flat indices (row-major on the padded grid), ascending, and (m, 2)
         the points in them, in that order: the points off the padded grid are left out."""
         key = (float(origin[0]), float(origin[1]), float(resolution), tuple(shape), int(pad))

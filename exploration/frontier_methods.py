@@ -106,9 +106,9 @@ class CFrontier:
                         blocked=evidence(snapshot) > self.costmap.occupied_above)
 
     def cells_near(self, snapshot: MapSnapshot, points: np.ndarray, reach: float) -> np.ndarray:
-        """(n, 2) the cells (ix, iy) of ``frontier``'s above the threshold in the box round
-        ``points`` (k, 2), meters, widened by ``reach`` m and a cell: F there alone
-        (``frontier_map_within``), as the whole map's."""
+        """(n, 2) the cells (ix, iy) where F is above the threshold, in the box round ``points``
+        (k, 2), meters, widened by ``reach`` m and a cell: F computed there alone
+        (``frontier_map_within``), equal to the whole map's."""
         c, resolution = self.config, snapshot.resolution
         h, w = snapshot.prob.shape
         at = (np.asarray(points, float) - np.asarray(snapshot.origin, float)) / resolution
