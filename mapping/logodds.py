@@ -120,6 +120,7 @@ class LogOddsGrid:
         return MapSnapshot(self.prob(), None, self.frame.origin, self.frame.resolution, self.hits())
 
     def _append_hits(self, new: np.ndarray) -> None:
+        """Append (k, 2) hits to the buffer, moving it to one twice as big when it is full."""
         end = self._count + len(new)
         if end > len(self._hits):
             grown = np.empty((max(end, 2 * len(self._hits), 1024), 2))
