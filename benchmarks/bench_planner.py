@@ -14,7 +14,9 @@ faces free space (office_d's run ended with 15 per such cell), from its seed-0 s
 Prints, per world: cells, hits, the median replan time and its reachable-field part, and their
 ratios against the first world (the Stage cave by default), each replan with one more scan's
 hits (``SCAN_HITS``) than the last, as in a run, where the clearance field of the hits seen
-before is reused; then the clearance to all the hits from scratch (``costmap.distance_to_points``
+before is reused; and the median replan that keeps its goal (most replans of a run), on the
+map seen within ``SEEN`` m of the start, where the first replan chose the goal (nan when the
+goal was not kept); then the clearance to all the hits from scratch (``costmap.distance_to_points``
 on hits it has not seen) against a k-d tree over the same hits queried at every free cell (what
 it replaced), on the largest map. Prints, never asserts.
 """
@@ -49,6 +51,8 @@ from sim.suite import largest_region, sample_start, world_list  # noqa: E402
 RESOLUTION = 0.1
 #: hits one scan adds to the map between two replans (a 0.5° laser, thinned to a half cell)
 SCAN_HITS = 200
+#: m round the start that the map for the kept-goal replans has seen
+SEEN = 8.0
 
 
 def finished_map(name: str, data: Path, hits_per_cell: int, rng: np.random.Generator):
@@ -78,6 +82,18 @@ def finished_map(name: str, data: Path, hits_per_cell: int, rng: np.random.Gener
     origin = np.asarray(world.origin, float) + 0.5 * RESOLUTION
     occ = np.where(known, np.where(wall, 0.9, 0.3), 0.5)
     return MapSnapshot(prob, occ, origin, RESOLUTION, hits=hits), start
+
+
+def half_seen(snapshot: MapSnapshot, start: gtsam.Pose2, seen: float = SEEN) -> MapSnapshot:
+    """``snapshot`` seen within ``seen`` m of the start alone (unknown beyond, without the hits
+    there): a map with frontiers, whose goal later replans keep."""
+    h, w = snapshot.prob.shape
+    yy, xx = np.mgrid[0:h, 0:w]
+    centres = snapshot.origin + RESOLUTION * np.stack([xx, yy], axis=-1)
+    far = np.hypot(centres[..., 0] - start.x(), centres[..., 1] - start.y()) > seen
+    hits = snapshot.hits[np.hypot(*(snapshot.hits - [start.x(), start.y()]).T) <= seen]
+    return dataclasses.replace(snapshot, prob=np.where(far, 0.5, snapshot.prob),
+                               prob_occ=np.where(far, 0.5, snapshot.prob_occ), hits=hits)
 
 
 def growing(snapshot: MapSnapshot, replans: int):
@@ -117,13 +133,18 @@ def main() -> None:
         explorer = Explorer(ExplorerConfig())
         reach = median_ms(lambda: explorer._reachable(next(grown), start), args.repeats)
         replan = median_ms(lambda: Explorer(ExplorerConfig()).plan(next(grown), start), args.repeats)
-        rows.append((name, snapshot, reach, replan))
+        part = growing(half_seen(snapshot, start), args.repeats + 2)
+        keeping = Explorer(ExplorerConfig())
+        chosen = keeping.plan(next(part), start).goal is not None
+        kept = median_ms(lambda: keeping.plan(next(part), start), args.repeats)
+        rows.append((name, snapshot, reach, replan, kept if chosen and keeping.goals_chosen == 1 else np.nan))
     base = rows[0]
-    print(f"{'world':>16} {'cells':>9} {'hits':>9} {'replan ms':>10} {'x':>6} {'field ms':>9} {'x':>6}")
-    for name, snapshot, reach, replan in rows:
+    print(f"{'world':>16} {'cells':>9} {'hits':>9} {'replan ms':>10} {'x':>6} {'field ms':>9} {'x':>6} "
+          f"{'kept ms':>8} {'x':>6}")
+    for name, snapshot, reach, replan, kept in rows:
         print(f"{name:>16} {snapshot.prob.size:>9} {len(snapshot.hits):>9} {replan:>10.1f} "
-              f"{replan / base[3]:>6.2f} {reach:>9.1f} {reach / base[2]:>6.2f}")
-    name, snapshot, _, _ = max(rows, key=lambda r: r[1].prob.size)
+              f"{replan / base[3]:>6.2f} {reach:>9.1f} {reach / base[2]:>6.2f} {kept:>8.1f} {kept / base[4]:>6.2f}")
+    name, snapshot, *_ = max(rows, key=lambda r: r[1].prob.size)
     free = snapshot.prob < 0.35
     iy, ix = np.nonzero(free)
     centres = snapshot.origin + RESOLUTION * np.column_stack([ix, iy])
