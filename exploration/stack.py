@@ -210,7 +210,7 @@ class Stack:
     def trail(self) -> np.ndarray:
         """(k, 2) where the robot's centre has been: the base at each mapped scan, as
         corrected now, meters."""
-        return positions([self.localiser.pose(i) for i, _ in self._mapped])
+        return self.localiser.positions(np.array([i for i, _ in self._mapped], int))
 
     def regenerate(self) -> None:
         """Relearn the map from every mapped scan at its corrected pose (Section VII)."""

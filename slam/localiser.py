@@ -11,6 +11,7 @@ log's poses when mapping it.
 
 from __future__ import annotations
 
+from array import array
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -55,6 +56,10 @@ class Localiser(Protocol):
     def pose(self, i: int) -> gtsam.Pose2:
         """Scan ``i``'s current pose estimate (scans counted from 0 in ``step`` order)."""
 
+    def positions(self, indices: np.ndarray) -> np.ndarray:
+        """(k, 2) x, y (m) of the poses of scans ``indices`` (k,) int: ``pose(i)``'s position for
+        each, at the cost of one array operation rather than one pose per scan."""
+
     def trajectory(self) -> list[gtsam.Pose2]:
         """Every scan's current pose estimate."""
 
@@ -76,12 +81,14 @@ class GivenPoses:
         self.keyframe_scans: list[LaserScan] = []
         self._keyframes: list[int] = []
         self._poses: list[gtsam.Pose2] = []
+        self._xy = array("d")          # x, y (m) of each pose in turn, for ``positions``
 
     def step(self, odometry: gtsam.Pose2 | None, scan: LaserScan,
              given: gtsam.Pose2 | None = None) -> Localisation:
         if given is None:
             raise ValueError("GivenPoses needs the scan's pose at every step (given=...)")
         self._poses.append(given)
+        self._xy.extend((given.x(), given.y()))
         if self._keyframes:
             delta = self._poses[self._keyframes[-1]].between(given)
             if (np.hypot(delta.x(), delta.y()) < self.config.min_translation
@@ -93,6 +100,10 @@ class GivenPoses:
 
     def pose(self, i: int) -> gtsam.Pose2:
         return self._poses[i]
+
+    def positions(self, indices: np.ndarray) -> np.ndarray:
+        # np.take copies: no view is left holding the buffer, which ``step`` keeps extending
+        return np.take(np.frombuffer(self._xy).reshape(-1, 2), indices, axis=0)
 
     def trajectory(self) -> list[gtsam.Pose2]:
         return list(self._poses)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from array import array
 from collections import Counter
 
 import gtsam
@@ -47,6 +48,9 @@ class PoseSlam:
         self._features: list[tuple[np.ndarray, np.ndarray]] = []
         self._keyframe_front_pose: list[gtsam.Pose2] = []
         self.scan_anchor: list[tuple[int, gtsam.Pose2]] = []
+        # scan_anchor's keyframes and offsets' x, y (m) again, as flat arrays for ``positions``
+        self._anchors = array("q")
+        self._offsets = array("d")
         self.scan_stamps: list[float] = []
         self.loops: list[LoopClosure] = []
         self._pending: list[LoopClosure] = []  # verified loops beyond the Mahalanobis gate
@@ -83,7 +87,10 @@ class PoseSlam:
             self._features.append((points, normals))
             self.front_end.add_keyframe(tracked.pose, points, normals)
         anchor = len(self._keyframe_front_pose) - 1
-        self.scan_anchor.append((anchor, self._keyframe_front_pose[anchor].between(tracked.pose)))
+        offset = self._keyframe_front_pose[anchor].between(tracked.pose)
+        self.scan_anchor.append((anchor, offset))
+        self._anchors.append(anchor)
+        self._offsets.extend((offset.x(), offset.y()))
         self.scan_stamps.append(scan.timestamp)
         result = Localisation(self.pose(len(self.scan_anchor) - 1), keyframe)
         if keyframe is not None and self.config.loop_closure.enabled:
@@ -177,6 +184,20 @@ class PoseSlam:
         """Scan i's current SLAM pose."""
         anchor, offset = self.scan_anchor[i]
         return self.graph.pose(anchor).compose(offset)
+
+    def positions(self, indices: np.ndarray) -> np.ndarray:
+        """(k, 2) x, y (m) of scans ``indices`` (k,) int from the current graph, all at once:
+        each scan's offset rotated and moved by its keyframe's estimate, as ``pose`` composes
+        them. The rotation is the cosine and sine of the keyframe's angle, where gtsam rotates
+        by those it stores: a scan between keyframes may land a last bit (1e-15 m) away from
+        ``pose``'s position; a keyframe's own scan (offset zero) lands exactly on it."""
+        # np.take copies: no view is left holding the buffers, which ``step`` keeps extending
+        anchors = np.take(np.frombuffer(self._anchors, np.int64), indices)
+        offsets = np.take(np.frombuffer(self._offsets).reshape(-1, 2), indices, axis=0)
+        x, y, theta = gtsam.utilities.extractPose2(self.graph.estimate)[anchors].T
+        c, s = np.cos(theta), np.sin(theta)
+        return np.column_stack([x + (c * offsets[:, 0] - s * offsets[:, 1]),
+                                y + (s * offsets[:, 0] + c * offsets[:, 1])])
 
     def trajectory(self) -> list[gtsam.Pose2]:
         """Every scan's pose from the current graph."""
