@@ -16,7 +16,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from exploration.costmap import CostmapConfig, classify, distance_to_points
+from exploration.costmap import CostmapConfig, classify, distance_to_points, passable
 from exploration.frontier import frontier_map, frontier_map_within
 from exploration.gain import visible_unknown_area
 from exploration.goals import Blacklist, FrontierCluster, extract_goals
@@ -76,7 +76,9 @@ class Frontier:
     ``regions`` (a list of (m, 2) cell arrays), and the map ``evidence`` (h, w) the
     significance test looks round on (``look_map``); ``blocked`` (h, w) bool, the cells the
     laser cannot see through; for the door check, ``seen`` (h, w) the snapshot's evidence
-    itself, closed within the robot's radius of a hit as ``evidence`` is."""
+    itself, closed within the robot's radius of a hit as ``evidence`` is; ``hits`` (k, 2) the
+    snapshot's laser endpoints (m); ``room`` (h, w) bool, where the robot could stand were all
+    unknown space free (``within_reach``), which looks then count unknown space by (``look``)."""
 
     values: np.ndarray
     cells: np.ndarray
@@ -84,6 +86,8 @@ class Frontier:
     evidence: np.ndarray | None = None
     blocked: np.ndarray | None = None
     seen: np.ndarray | None = None
+    hits: np.ndarray | None = None
+    room: np.ndarray | None = None
 
 
 class CFrontier:
@@ -103,7 +107,7 @@ class CFrontier:
         iy, ix = np.nonzero(values > c.goals.threshold)
         return Frontier(values, np.column_stack([ix, iy]),
                         evidence=look_map(snapshot, self.costmap, c.robot_radius),
-                        blocked=evidence(snapshot) > self.costmap.occupied_above)
+                        blocked=evidence(snapshot) > self.costmap.occupied_above, hits=snapshot.hits)
 
     def cells_near(self, snapshot: MapSnapshot, points: np.ndarray, reach: float) -> np.ndarray:
         """(n, 2) the cells (ix, iy) where F is above the threshold, in the box round ``points``
@@ -130,8 +134,9 @@ class CFrontier:
         clusters = extract_goals(frontier.values, reachable.origin, reachable.resolution,
                                  reachable.dist, c.goals, blacklist, seed=int(rng.integers(2**31)),
                                  approach=approach, near=reachable.near)
-        kept = [k for k in (significant(k, frontier, reachable, approach, c, self.costmap) for k in clusters)
-                if k is not None]
+        reached = within_reach(frontier, reachable, c.robot_radius, self.costmap)
+        kept = [k for k in (significant(k, frontier, reached, reachable, approach, c, self.costmap)
+                            for k in clusters) if k is not None]
         if sum(len(k.points) for k in kept) < c.goals.min_points:
             return []
         return sorted(kept, key=lambda k: -k.utility)
@@ -168,7 +173,7 @@ class GridFrontier:
         values[cells[:, 1], cells[:, 0]] = 1.0
         return Frontier(values, cells, tuple(regions),
                         evidence=look_map(snapshot, self.costmap, self.config.robot_radius),
-                        blocked=evidence(snapshot) > self.costmap.occupied_above)
+                        blocked=evidence(snapshot) > self.costmap.occupied_above, hits=snapshot.hits)
 
     def surfaces(self, snapshot: MapSnapshot) -> np.ndarray | None:
         """(h, w) bool, cells that are no frontier whatever the grid reads there; None: none."""
@@ -183,7 +188,8 @@ class GridFrontier:
         """The significant regions (``regions``), the nearest by path first."""
         goals = self.config.goals
         approach = Approach(reachable.dist, frontier.blocked, reachable.resolution, goals.view, goals.reach)
-        kept = (significant(k, frontier, reachable, approach, self.config, self.costmap)
+        reached = within_reach(frontier, reachable, self.config.robot_radius, self.costmap)
+        kept = (significant(k, frontier, reached, reachable, approach, self.config, self.costmap)
                 for k in self.regions(frontier, reachable, blacklist))
         return sorted((dataclasses.replace(k, utility=-k.distance) for k in kept if k is not None),
                       key=lambda k: -k.utility)
@@ -325,6 +331,7 @@ class DoorFrontier(GridFrontier):
         ``VIEWS`` of its points whose look shows ``min_gain`` (the nearest of those by path):
         a door through a thick wall is a tunnel, seen through from within it, not from the
         corridor beside it, where the path to the region is shortest."""
+        frontier = within_reach(frontier, reachable, self.config.robot_radius, self.costmap)
         clusters = []
         for k in self.regions(frontier, reachable, blacklist):
             through = dataclasses.replace(frontier, evidence=self._through(frontier, k.points, reachable))
@@ -356,10 +363,12 @@ class DoorFrontier(GridFrontier):
         return through
 
 
-def significant(cluster: FrontierCluster, frontier: Frontier, reachable: Reachable, approach: Approach,
-                config: ExplorerConfig, costmap: CostmapConfig) -> FrontierCluster | None:
-    """The cluster when a look round on ``frontier.evidence`` from its goal (from its centroid
-    when it has none) shows ``config.min_gain``; else, served from the nearest goal by another
+def significant(cluster: FrontierCluster, frontier: Frontier, reached: Frontier, reachable: Reachable,
+                approach: Approach, config: ExplorerConfig, costmap: CostmapConfig) -> FrontierCluster | None:
+    """The cluster when a look round from its goal on ``reached`` (``frontier`` with its
+    ``room``: ``within_reach``) shows ``config.min_gain``, or with no goal, a look from its
+    centroid on ``frontier`` (it is then a frontier out of reach, which ends a run as such,
+    whatever lies behind it); else, served from the nearest goal by another
     of its points that does (k-means can join a remnant beside the robot with a corridor's end
     across the building: the goal by the nearest point sees only the remnant), tried at
     ``VIEWS`` points spread over the cluster, each from the best reachable cell within reach of
@@ -369,19 +378,32 @@ def significant(cluster: FrontierCluster, frontier: Frontier, reachable: Reachab
     Each of those cells sees its point past ``frontier.blocked`` (``best_cell_near``)."""
 
     def gain(at: np.ndarray) -> float:
-        return look(frontier, reachable, at, config, costmap)
+        return look(reached, reachable, at, config, costmap)
 
     def cell_near(dist: np.ndarray, cell: np.ndarray, reach: int) -> np.ndarray | None:
         best = best_cell_near(dist, cell, reach, frontier.blocked)
         return best if np.isfinite(dist[best[1], best[0]]) else approach.goal(np.asarray(cell)[None])
 
     if cluster.goal is None:
-        return cluster if gain(cluster.centroid) >= config.min_gain else None
+        return cluster if look(frontier, reachable, cluster.centroid, config, costmap) >= config.min_gain else None
     if gain(cluster.goal) >= config.min_gain:
         return cluster
     view = nearest_view(cluster.points, cluster.goal, reachable, cell_near,
                         lambda goal: gain(goal) >= config.min_gain)
     return None if view is None else cluster.served_from(view[1], view[0])
+
+
+def within_reach(frontier: Frontier, reachable: Reachable, radius: float, costmap: CostmapConfig) -> Frontier:
+    """``frontier`` with its ``room``: where a robot of ``radius`` could stand were all unknown
+    space free, as the costmap would let it (``costmap.passable``: clearance to the hits and
+    occupied cells, the squeeze through doors), on ``reachable``'s grid."""
+    # off the map is unknown, so free too: free cells round the map, as many as keep the
+    # map's own clear of the edge (``passable`` counts off its map as unknown, or occupied)
+    pad = int(math.ceil((radius + costmap.margin + costmap.unknown_clearance) / reachable.resolution)) + 1
+    optimistic = np.pad(np.where(frontier.blocked, 1.0, 0.0), pad)
+    ok = passable(optimistic, reachable.resolution, radius, costmap, frontier.hits,
+                  reachable.origin - pad * reachable.resolution)[0]
+    return dataclasses.replace(frontier, room=ok[pad:-pad, pad:-pad])
 
 
 def look_map(snapshot: MapSnapshot, costmap: CostmapConfig, radius: float) -> np.ndarray:
@@ -408,9 +430,48 @@ def look_map(snapshot: MapSnapshot, costmap: CostmapConfig, radius: float) -> np
 def look(frontier: Frontier, reachable: Reachable, at: np.ndarray, config: ExplorerConfig,
          costmap: CostmapConfig) -> float:
     """m² of unknown space a look round from ``at`` (2,) would show on ``frontier.evidence``,
-    out to the laser's range."""
-    return visible_unknown_area(frontier.evidence, reachable.origin, reachable.resolution, at,
-                                config.sensor_range, costmap.occupied_above)
+    out to the laser's range; with the frontier's ``room`` (``within_reach``), only of the
+    unknown space the robot could drive into from ``at`` within that range were it free
+    (``reachable_unknown``): the rest is looked through, not counted."""
+    evidence, origin = frontier.evidence, reachable.origin
+    if frontier.room is not None:
+        evidence, origin = reachable_unknown(frontier, reachable, at, config.sensor_range)
+    return visible_unknown_area(evidence, origin, reachable.resolution, at, config.sensor_range,
+                                costmap.occupied_above)
+
+
+def reachable_unknown(frontier: Frontier, reachable: Reachable, at: np.ndarray,
+                      sensor_range: float) -> tuple[np.ndarray, np.ndarray]:
+    """(the window of ``frontier.evidence`` within ``sensor_range`` of ``at`` (2,), off the map
+    unknown, its cell (0, 0)'s centre): its unknown cells outside the regions of
+    ``frontier.room`` (off the map: free) that join the cells round ``at``, where the robot
+    could not drive from ``at`` were the unknown free, marked free there (seen through, not
+    counted). Such space is the band along a wall within the robot's clearance of it (no
+    core coverage lies there), or the inside of a wall or block, or the outside of the
+    building, behind a gap narrower than the robot (the unseen corner of a junction of two
+    walls, a gap between a wall's hits): a room behind such a gap is reached by its own door,
+    which has a frontier of its own. The regions are found within the window alone: one gap
+    wide enough anywhere along a building's outer wall joins all the outside to its inside.
+    Where no region of ``room`` touches ``at``'s cell or those beside it, nothing is marked."""
+    resolution = reachable.resolution
+    h, w = frontier.evidence.shape
+    half = int(math.ceil(sensor_range / resolution)) + 1
+    cx, cy = reachable.cell(at)
+    side = 2 * half + 1
+    window, room = np.full((side, side), 0.5), np.ones((side, side), dtype=bool)
+    x0, x1, y0, y1 = max(cx - half, 0), min(cx + half + 1, w), max(cy - half, 0), min(cy + half + 1, h)
+    if x0 < x1 and y0 < y1:
+        inside = np.s_[y0 - cy + half:y1 - cy + half, x0 - cx + half:x1 - cx + half]
+        window[inside] = frontier.evidence[y0:y1, x0:x1]
+        room[inside] = frontier.room[y0:y1, x0:x1]
+    origin = reachable.origin + resolution * np.array([cx - half, cy - half])
+    regions, _ = ndimage.label(room, structure=np.ones((3, 3), dtype=bool))
+    around = regions[half - 1:half + 2, half - 1:half + 2]
+    joined = np.unique(around[around > 0])
+    if not len(joined):
+        return window, origin
+    unreachable = (np.abs(window - 0.5) <= KNOWN) & ~np.isin(regions, joined)
+    return np.where(unreachable, 0.0, window), origin
 
 
 def nearest_view(points: np.ndarray, first: np.ndarray, reachable: Reachable,

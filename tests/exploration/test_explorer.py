@@ -8,11 +8,11 @@ import pytest
 
 from exploration.costmap import passable
 from exploration.explorer import Explorer, ExplorerConfig
-from exploration.frontier_methods import CFrontier
+from exploration.frontier_methods import CFrontier, look, within_reach
 from exploration.frontier import frontier_map
 from exploration.gain import visible_unknown_area
-from exploration.goals import GoalConfig
-from exploration.paths import distance_field
+from exploration.goals import GoalConfig, extract_goals
+from exploration.paths import Approach, distance_field
 from mapping.occupancy import MapSnapshot
 
 
@@ -279,11 +279,12 @@ def test_nearer_of_two_equal_openings_first():
 
 def test_frontier_behind_a_gap_narrower_than_the_robot_is_unreachable():
     """A 0.3 m gap in a 0.3 m thick right wall (x = 8.0-8.2 m), through which the robot saw a
-    0.3 m wide strip of free space 1.2 m past the wall. The robot (0.5 m across, 0.3 m clearance to occupied cells) cannot
-    pass the gap, so it stays in the room, where the passable cells end at x = 7.7 m, while
-    the frontier points start at x = 8.4 m: farther than the 0.6 m reach. The robot first goes
-    to look at the strip from the passable cell nearest to it that sees it (x = 7.7 m, at the
-    gap's rows); from there frontier remains, but no goal can serve it."""
+    0.3 m wide strip of free space 1.2 m past the wall. The robot (0.5 m across, 0.3 m clearance
+    to occupied cells) cannot pass the gap, so it stays in the room, where the passable cells
+    end at x = 7.7 m, while the frontier points start at x = 8.4 m: farther than the 0.6 m
+    reach. A look from the passable cell nearest to the strip that sees it (x = 7.7 m, at the
+    gap's rows) would show the unknown space round the strip, but the robot could not drive
+    into that space were it all free (``within_reach``): the run ends at once, without a trip."""
     config = ExplorerConfig()
     snapshot = room([("right", 38, 41, 12)], wall=3)
     points = frontier_points(snapshot)
@@ -292,18 +293,29 @@ def test_frontier_behind_a_gap_narrower_than_the_robot_is_unreachable():
     inside = ix < 80
     assert ix[inside].max() * RES <= 7.7 + 1e-9
     assert points[:, 0].min() - ix[inside].max() * RES > config.goals.reach
+    assert visible_unknown_area(snapshot.prob, snapshot.origin, RES, (7.7, 3.9), config.sensor_range,
+                                config.costmap.occupied_above) >= config.min_gain
+    plan = Explorer(config).plan(snapshot, ROBOT)
+    assert plan.goal is None and plan.done == "frontiers_exhausted"
 
-    explorer = Explorer(config)
-    look = explorer.plan(snapshot, ROBOT)
-    assert look.new_goal and look.goal[0] == pytest.approx(7.7) and 3.8 <= look.goal[1] <= 4.1
-    explorer.reached()
-    plan = explorer.plan(snapshot, gtsam.Pose2(*look.goal, 0.0))
-    assert plan.goal is None and plan.done == "no_reachable_goal"
-    assert plan.clusters and explorer.goal is None
-    for cluster in plan.clusters:
-        assert cluster.goal is None and np.isinf(cluster.distance) and cluster.utility == -np.inf
-        assert (cluster.points[:, 0] > 8.2).all()
-    assert sum(len(k.points) for k in plan.clusters) <= len(points)
+
+def test_a_look_counts_only_unknown_space_the_robot_could_drive_into():
+    """From before a 0.2 m gap in the right wall (x = 8.0-8.2 m), a look sees the unknown space
+    past it, but the robot could not drive into that space were it free (the costmap closes
+    the gap to it): on the frontier within reach (``within_reach``) the look shows none of it.
+    Past a 1.2 m door it could: the look shows what it shows on the map alone, but for the
+    band along the walls within the robot's clearance of them."""
+    config = ExplorerConfig()
+    for snapshot, at, door in ((room([("right", 38, 40, 12)], wall=3), (7.7, 3.9), False),
+                               (one_opening(), (7.7, 4.0), True)):
+        explorer = Explorer(config)
+        reachable = explorer._reachable(snapshot, ROBOT)
+        frontier = CFrontier(config).frontier(snapshot)
+        reached = within_reach(frontier, reachable, config.robot_radius, config.costmap)
+        alone = look(frontier, reachable, np.array(at), config, config.costmap)
+        counted = look(reached, reachable, np.array(at), config, config.costmap)
+        assert alone >= config.min_gain
+        assert 0.9 * alone < counted < alone if door else counted == 0.0
 
 
 def test_grid_method_on_the_same_maps_keeps_its_goal_too():
@@ -440,13 +452,15 @@ def test_a_cluster_is_significant_from_its_far_end_when_its_near_end_is_a_remnan
 
 
 
-def test_a_cluster_is_significant_from_where_its_out_of_reach_end_is_seen():
+def test_a_cluster_out_of_reach_is_looked_at_from_before_its_gap_but_not_counted_past_it():
     """The remnant pocket beside the robot shares a cluster with the frontier seen through a
     0.4 m gap in a 0.4 m thick right wall (x 8.0-8.3 m): no passable cell is within
     ``goals.reach`` (0.6 m) of that frontier, which starts at x = 8.5 m, so none of its points
-    has a goal by it. The goal by the pocket shows under ``min_gain`` with a 2 m sensor.
-    The cluster is still significant, served from where the robot would look through the gap
-    (``Approach``): the reachable cell nearest in a straight line to it, before the gap."""
+    has a goal by it, and the cluster is served from where the robot would look through the
+    gap (``Approach``): the reachable cell nearest in a straight line to it, before the gap.
+    The look from there shows the unknown space past the gap, but the robot could not drive
+    into it were it free (``within_reach``), and the goal by the pocket shows under
+    ``min_gain`` with a 2 m sensor: the cluster is not significant, and the run ends."""
     snapshot = room([("right", 38, 42, 10)], wall=4)
     snapshot.prob[37:43, 57:63] = UNKNOWN
     snapshot.prob_occ[37:43, 57:63] = UNKNOWN
@@ -456,12 +470,22 @@ def test_a_cluster_is_significant_from_where_its_out_of_reach_end_is_seen():
     cells = np.round((points - snapshot.origin) / RES).astype(int)
     beyond = points[:, 0] > 7.0
     assert beyond.any() and not np.isfinite(reachable.near[cells[beyond, 1], cells[beyond, 0]]).any()
+    frontier = CFrontier(config).frontier(snapshot)
+    approach = Approach(reachable.dist, frontier.blocked, RES, config.goals.view, config.goals.reach)
+    cluster, = extract_goals(frontier.values, snapshot.origin, RES, reachable.dist, config.goals,
+                             approach=approach, near=reachable.near)
+    beyond_only = extract_goals(frontier.values * (np.arange(100) > 70),
+                                snapshot.origin, RES, reachable.dist, config.goals, approach=approach,
+                                near=reachable.near)[0]
+    assert 7.4 <= beyond_only.goal[0] < 7.9 and 3.8 <= beyond_only.goal[1] <= 4.2     # before the gap
+    assert len(cluster.points) == len(points)
+    shown = visible_unknown_area(snapshot.prob, snapshot.origin, RES, beyond_only.goal, 2.0,
+                                 config.costmap.occupied_above)
+    reached = within_reach(frontier, reachable, config.robot_radius, config.costmap)
+    assert shown >= config.min_gain > look(reached, reachable, beyond_only.goal, config, config.costmap)
     plan = Explorer(config).plan(snapshot, ROBOT)
-    assert plan.new_goal and len(plan.clusters) == 1 and len(plan.clusters[0].points) == len(points)
-    assert 7.4 <= plan.goal[0] < 7.9 and 3.8 <= plan.goal[1] <= 4.2           # before the gap
-    assert visible_unknown_area(snapshot.prob, snapshot.origin, RES, plan.goal, 2.0,
-                                config.costmap.occupied_above) >= config.min_gain
-    assert_passable_path(plan, snapshot, config)
+    assert plan.goal is None and plan.done == "frontiers_exhausted"
+
 
 def test_a_passage_the_robot_could_not_pass_is_closed_not_retried():
     """The right door's hits leave 0.46 m between its jambs: the costmap's squeeze lets paths
