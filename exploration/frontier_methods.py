@@ -16,7 +16,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from exploration.costmap import CostmapConfig, classify, distance_to_points, passable
+from exploration.costmap import CostmapConfig, classify, distance_to_points
 from exploration.frontier import frontier_map, frontier_map_within
 from exploration.gain import visible_unknown_area
 from exploration.goals import Blacklist, FrontierCluster, extract_goals
@@ -77,8 +77,9 @@ class Frontier:
     significance test looks round on (``look_map``); ``blocked`` (h, w) bool, the cells the
     laser cannot see through; for the door check, ``seen`` (h, w) the snapshot's evidence
     itself, closed within the robot's radius of a hit as ``evidence`` is; ``hits`` (k, 2) the
-    snapshot's laser endpoints (m); ``room`` (h, w) bool, where the robot could stand were all
-    unknown space free (``within_reach``), which looks then count unknown space by (``look``)."""
+    snapshot's laser endpoints (m); ``clearance`` (h, w), meters from each cell to the nearest
+    wall were all unknown space free (``within_reach``), by which looks then count unknown space
+    (``look``)."""
 
     values: np.ndarray
     cells: np.ndarray
@@ -87,7 +88,7 @@ class Frontier:
     blocked: np.ndarray | None = None
     seen: np.ndarray | None = None
     hits: np.ndarray | None = None
-    room: np.ndarray | None = None
+    clearance: np.ndarray | None = None
 
 
 class CFrontier:
@@ -366,7 +367,7 @@ class DoorFrontier(GridFrontier):
 def significant(cluster: FrontierCluster, frontier: Frontier, reached: Frontier, reachable: Reachable,
                 approach: Approach, config: ExplorerConfig, costmap: CostmapConfig) -> FrontierCluster | None:
     """The cluster when a look round from its goal on ``reached`` (``frontier`` with its
-    ``room``: ``within_reach``) shows ``config.min_gain``, or with no goal, a look from its
+    ``clearance``: ``within_reach``) shows ``config.min_gain``, or with no goal, a look from its
     centroid on ``frontier`` (it is then a frontier out of reach, which ends a run as such,
     whatever lies behind it); else, served from the nearest goal by another
     of its points that does (k-means can join a remnant beside the robot with a corridor's end
@@ -394,16 +395,15 @@ def significant(cluster: FrontierCluster, frontier: Frontier, reached: Frontier,
 
 
 def within_reach(frontier: Frontier, reachable: Reachable, radius: float, costmap: CostmapConfig) -> Frontier:
-    """``frontier`` with its ``room``: where a robot of ``radius`` could stand were all unknown
-    space free, as the costmap would let it (``costmap.passable``: clearance to the hits and
-    occupied cells, the squeeze through doors), on ``reachable``'s grid."""
-    # off the map is unknown, so free too: free cells round the map, as many as keep the
-    # map's own clear of the edge (``passable`` counts off its map as unknown, or occupied)
-    pad = int(math.ceil((radius + costmap.margin + costmap.unknown_clearance) / reachable.resolution)) + 1
-    optimistic = np.pad(np.where(frontier.blocked, 1.0, 0.0), pad)
-    ok = passable(optimistic, reachable.resolution, radius, costmap, frontier.hits,
-                  reachable.origin - pad * reachable.resolution)[0]
-    return dataclasses.replace(frontier, room=ok[pad:-pad, pad:-pad])
+    """``frontier`` with its ``clearance``: meters from each cell's centre to the nearest hit
+    (without hits, to the nearest occupied cell's edge), all unknown space taken free (off the
+    map too), to ``radius`` + the costmap's margin and infinite beyond; 0 on occupied cells."""
+    resolution, shape = reachable.resolution, frontier.blocked.shape
+    if frontier.hits is not None and len(frontier.hits):
+        clearance = distance_to_points(frontier.hits, reachable.origin, resolution, shape, radius + costmap.margin)
+    else:
+        clearance = ndimage.distance_transform_edt(~frontier.blocked) * resolution - resolution / 2
+    return dataclasses.replace(frontier, clearance=np.where(frontier.blocked, 0.0, clearance))
 
 
 def look_map(snapshot: MapSnapshot, costmap: CostmapConfig, radius: float) -> np.ndarray:
@@ -430,48 +430,55 @@ def look_map(snapshot: MapSnapshot, costmap: CostmapConfig, radius: float) -> np
 def look(frontier: Frontier, reachable: Reachable, at: np.ndarray, config: ExplorerConfig,
          costmap: CostmapConfig) -> float:
     """m² of unknown space a look round from ``at`` (2,) would show on ``frontier.evidence``,
-    out to the laser's range; with the frontier's ``room`` (``within_reach``), only of the
+    out to the laser's range; with the frontier's ``clearance`` (``within_reach``), only of the
     unknown space the robot could drive into from ``at`` within that range were it free
     (``reachable_unknown``): the rest is looked through, not counted."""
     evidence, origin = frontier.evidence, reachable.origin
-    if frontier.room is not None:
-        evidence, origin = reachable_unknown(frontier, reachable, at, config.sensor_range)
+    if frontier.clearance is not None:
+        evidence, origin = reachable_unknown(frontier, reachable, at, config, costmap)
     return visible_unknown_area(evidence, origin, reachable.resolution, at, config.sensor_range,
                                 costmap.occupied_above)
 
 
-def reachable_unknown(frontier: Frontier, reachable: Reachable, at: np.ndarray,
-                      sensor_range: float) -> tuple[np.ndarray, np.ndarray]:
-    """(the window of ``frontier.evidence`` within ``sensor_range`` of ``at`` (2,), off the map
-    unknown, its cell (0, 0)'s centre): its unknown cells outside the regions of
-    ``frontier.room`` (off the map: free) that join the cells round ``at``, where the robot
-    could not drive from ``at`` were the unknown free, marked free there (seen through, not
-    counted). Such space is the band along a wall within the robot's clearance of it (no
-    core coverage lies there), or the inside of a wall or block, or the outside of the
-    building, behind a gap narrower than the robot (the unseen corner of a junction of two
-    walls, a gap between a wall's hits): a room behind such a gap is reached by its own door,
-    which has a frontier of its own. The regions are found within the window alone: one gap
-    wide enough anywhere along a building's outer wall joins all the outside to its inside.
-    Where no region of ``room`` touches ``at``'s cell or those beside it, nothing is marked."""
+def reachable_unknown(frontier: Frontier, reachable: Reachable, at: np.ndarray, config: ExplorerConfig,
+                      costmap: CostmapConfig) -> tuple[np.ndarray, np.ndarray]:
+    """(the window of ``frontier.evidence`` within the laser's range of ``at`` (2,), off the map
+    unknown, its cell (0, 0)'s centre), its unknown cells marked free (seen through, not
+    counted) but for those the robot could drive into from ``at`` were the unknown free, with
+    its centre there: farther than its radius from the walls (``frontier.clearance``, off the
+    map free), in the regions that join the cells round ``at`` of the cells a passage runs
+    through. A passage is as wide as the costmap plans a door (the robot's radius and margin
+    each side, less the squeeze): a cell of it along the grid's axes has a centre that clear,
+    less half a cell; a 0.3 m gap has none (the costmap's own search for each cell's clearest
+    point took 0.8 s on office_g's late map, at every new goal choice).
+
+    Not counted so: the band along a wall within the robot's radius of it (no core coverage
+    lies there), and the inside of a wall or block, or the outside of the building, behind a
+    gap narrower than the robot (the unseen corner of a junction of two walls, a gap between a
+    wall's hits): a room behind such a gap is reached by its own door, which has a frontier of
+    its own. The regions are found within the window alone: one gap wide enough anywhere along
+    a building's outer wall joins all the outside to its inside. Where no passage cell touches
+    ``at``'s cell or those beside it, nothing is marked."""
     resolution = reachable.resolution
     h, w = frontier.evidence.shape
-    half = int(math.ceil(sensor_range / resolution)) + 1
+    half = int(math.ceil(config.sensor_range / resolution)) + 1
     cx, cy = reachable.cell(at)
     side = 2 * half + 1
-    window, room = np.full((side, side), 0.5), np.ones((side, side), dtype=bool)
+    window, clearance = np.full((side, side), 0.5), np.full((side, side), np.inf)
     x0, x1, y0, y1 = max(cx - half, 0), min(cx + half + 1, w), max(cy - half, 0), min(cy + half + 1, h)
     if x0 < x1 and y0 < y1:
         inside = np.s_[y0 - cy + half:y1 - cy + half, x0 - cx + half:x1 - cx + half]
         window[inside] = frontier.evidence[y0:y1, x0:x1]
-        room[inside] = frontier.room[y0:y1, x0:x1]
+        clearance[inside] = frontier.clearance[y0:y1, x0:x1]
     origin = reachable.origin + resolution * np.array([cx - half, cy - half])
-    regions, _ = ndimage.label(room, structure=np.ones((3, 3), dtype=bool))
+    passage = config.robot_radius + costmap.margin - costmap.squeeze - resolution / 2
+    regions, _ = ndimage.label(clearance > passage, structure=np.ones((3, 3), dtype=bool))
     around = regions[half - 1:half + 2, half - 1:half + 2]
     joined = np.unique(around[around > 0])
     if not len(joined):
         return window, origin
-    unreachable = (np.abs(window - 0.5) <= KNOWN) & ~np.isin(regions, joined)
-    return np.where(unreachable, 0.0, window), origin
+    counted = np.isin(regions, joined) & (clearance > config.robot_radius)
+    return np.where((np.abs(window - 0.5) <= KNOWN) & ~counted, 0.0, window), origin
 
 
 def nearest_view(points: np.ndarray, first: np.ndarray, reachable: Reachable,
