@@ -386,7 +386,8 @@ def significant(cluster: FrontierCluster, frontier: Frontier, reached: Frontier,
         return best if np.isfinite(dist[best[1], best[0]]) else approach.goal(np.asarray(cell)[None])
 
     if cluster.goal is None:
-        return cluster if look(frontier, reachable, cluster.centroid, config, costmap) >= config.min_gain else None
+        shown = look(frontier, reachable, cluster.centroid, config, costmap)
+        return cluster if shown >= config.min_gain else None
     if gain(cluster.goal) >= config.min_gain:
         return cluster
     view = nearest_view(cluster.points, cluster.goal, reachable, cell_near,
@@ -400,7 +401,8 @@ def within_reach(frontier: Frontier, reachable: Reachable, radius: float, costma
     map too), to ``radius`` + the costmap's margin and infinite beyond; 0 on occupied cells."""
     resolution, shape = reachable.resolution, frontier.blocked.shape
     if frontier.hits is not None and len(frontier.hits):
-        clearance = distance_to_points(frontier.hits, reachable.origin, resolution, shape, radius + costmap.margin)
+        clearance = distance_to_points(frontier.hits, reachable.origin, resolution, shape,
+                                       radius + costmap.margin)
     else:
         clearance = ndimage.distance_transform_edt(~frontier.blocked) * resolution - resolution / 2
     return dataclasses.replace(frontier, clearance=np.where(frontier.blocked, 0.0, clearance))
