@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 
 class _Config(BaseModel):
@@ -43,6 +43,26 @@ class KernelConfig(_Config):
         if not 0 < lo < hi:
             raise ValueError(f"bounds must satisfy 0 < lo < hi, got {bounds}")
         return bounds
+
+
+class ObstacleKernelConfig(KernelConfig):
+    """θo of the obstacle GP (Matérn only); its own defaults, so a partial section keeps them."""
+
+    matern_length: float = Field(0.2, gt=0, description="Matérn characteristic length κ, m")
+    length_bounds: tuple[float, float] = Field((0.1, 0.3), description="bounds of the fitted "
+                                               "Matérn length, m; the lower one at least "
+                                               "training.voxel, the hits' spacing")
+
+
+class FreeKernelConfig(KernelConfig):
+    """θf of the free GP (SE × Matérn); its own defaults, so a partial section keeps them."""
+
+    se_length: float = Field(0.5, gt=0, description="squared-exponential length κ, m")
+    length_bounds: tuple[float, float] = Field((0.3, 0.5), description="bounds of the fitted "
+                                               "Matérn length, m; the lower one at least "
+                                               "training.free_voxel, the free points' spacing")
+    se_bounds: tuple[float, float] = Field((0.3, 1.0), description="bounds of the fitted SE "
+                                           "length, m; the lower one as for the Matérn's")
 
 
 class TrainingConfig(_Config):
@@ -101,9 +121,8 @@ class DriftConfig(_Config):
 class COMConfig(_Config):
     """Everything the continuous occupancy map needs; the defaults work out of the box."""
 
-    obstacle: KernelConfig = KernelConfig(matern_length=0.2, length_bounds=(0.05, 0.3))
-    free: KernelConfig = KernelConfig(matern_length=0.3, length_bounds=(0.05, 0.5),
-                                      se_length=0.5, se_bounds=(0.1, 1.0))
+    obstacle: ObstacleKernelConfig = ObstacleKernelConfig()
+    free: FreeKernelConfig = FreeKernelConfig()
     fit_hyperparameters: bool = Field(True, description="fit θo, θf on the first keyframe by "
                                       "maximising the marginal likelihood, then keep them fixed")
     fit_max_points: int = Field(400, ge=10, description="points per GP used for that fit")
@@ -112,3 +131,23 @@ class COMConfig(_Config):
     squash: SquashConfig = SquashConfig()
     drift: DriftConfig = DriftConfig()
     seed: int = Field(0, ge=0, description="seed of every random draw (subsampling for the fit)")
+
+    @model_validator(mode="after")
+    def _lengths_span_the_training_spacing(self) -> COMConfig:
+        """Each GP's lengths, fitted or not, are at least the spacing of its own training points
+        (hits: ``training.voxel``; free points: ``training.free_voxel``). The map is read between
+        those points; a shorter length leaves that space at the prior, unknown. A first frame
+        where hits and free points interleave (clutter near the robot) pulls the ±1 fit down to
+        0.08 m, and such a run then reads half of the space it has seen as unknown."""
+        t = self.training
+        for name, kc, spacing, key in (("obstacle", self.obstacle, t.voxel, "voxel"),
+                                       ("free", self.free, t.free_voxel, "free_voxel")):
+            lengths = {"matern_length": kc.matern_length, "length_bounds": kc.length_bounds[0]}
+            if name == "free":
+                lengths |= {"se_length": kc.se_length, "se_bounds": kc.se_bounds[0]}
+            for field, length in lengths.items():
+                if length < spacing:
+                    raise ValueError(
+                        f"{name}.{field}: {length} m is shorter than training.{key} = {spacing} m, "
+                        f"the spacing of the {name} GP's training points")
+        return self
