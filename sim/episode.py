@@ -135,22 +135,55 @@ class Evaluator:
         self.reachable = world.reachable(start_xy, radius, margin)
         self.cells = np.nonzero(self.reachable)                       # (iy, ix)
         self.free_xy = world.center_of(np.column_stack(self.cells[::-1]))
+        self.start = world.cell_of(np.asarray(start_xy, float))       # (ix, iy)
         self.world = world
 
     def coverage(self, stack: Stack, prob: np.ndarray) -> float:
         return coverage(stack.map.frame.sample(prob, self.free_xy))
 
-    def missed_area(self, stack: Stack, prob: np.ndarray, min_region_m2: float = MISSED_REGION_M2) -> float:
-        """m² of the reachable free space (the cells ``coverage`` reads) that the map ``prob``
-        does not know (|p − 0.5| ≤ ``KNOWN``), counted in 4-connected regions of at least
-        ``min_region_m2`` only: a missed room, not the scattered unknown cells of a seen one."""
+    def missed_regions(self, stack: Stack, prob: np.ndarray,
+                       min_region_m2: float = MISSED_REGION_M2) -> list[dict]:
+        """The reachable free space (the cells ``coverage`` reads) that the map ``prob`` does not
+        know (|p − 0.5| ≤ ``KNOWN``), as 4-connected regions of at least ``min_region_m2``: a
+        missed room, not the scattered unknown cells of a seen one. Each is a dict: ``area_m2``,
+        ``x``, ``y`` (its centroid, m) and ``door_m``, the narrowest gap on the widest way to it
+        from the start (``door_to``), largest first."""
         known = np.abs(stack.map.frame.sample(prob, self.free_xy) - 0.5) > KNOWN
         unknown = np.zeros_like(self.reachable)
         unknown[self.cells[0][~known], self.cells[1][~known]] = True
         labels, n = ndimage.label(unknown)
         cell = self.world.resolution[0] * self.world.resolution[1]
         areas = np.bincount(labels.ravel(), minlength=n + 1)[1:] * cell
-        return float(areas[areas >= min_region_m2].sum())
+        regions = []
+        for label in np.flatnonzero(areas >= min_region_m2) + 1:
+            region = labels == label
+            x, y = self.world.center_of(np.argwhere(region)[:, ::-1]).mean(axis=0)
+            regions.append({"area_m2": float(areas[label - 1]), "x": float(x), "y": float(y),
+                            "door_m": self.door_to(region)})
+        return sorted(regions, key=lambda r: -r["area_m2"])
+
+    def door_to(self, region: np.ndarray) -> float:
+        """Meters: twice the clearance of the narrowest cell on the widest 4-connected way from
+        the start to the (h, w) bool ``region``, the width of the narrowest door the robot must
+        pass to get there (within a cell below it: a door an even number of cells wide has no
+        cell at its middle). A room missed behind a door as narrow as the robot's diameter and
+        margins tells another story than one behind a wide door."""
+        rows, cols = np.nonzero(self.reachable)
+        box = slice(rows.min(), rows.max() + 1), slice(cols.min(), cols.max() + 1)
+        clearance = self.world.clearance()[box]
+        region = region[box]
+        start = self.start[1] - box[0].start, self.start[0] - box[1].start
+        levels = np.unique(clearance[self.reachable[box]])
+
+        def joined(level: float) -> bool:
+            labels, _ = ndimage.label(clearance >= level)
+            return labels[start] > 0 and bool((labels[region] == labels[start]).any())
+
+        lo, hi = 0, len(levels) - 1      # joined at levels[lo] (the reachable cells' least)
+        while lo < hi:
+            mid = (lo + hi + 1) // 2
+            lo, hi = (mid, hi) if joined(levels[mid]) else (lo, mid - 1)
+        return float(2.0 * levels[lo])
 
     def entropy(self, stack: Stack, prob: np.ndarray) -> float:
         """Nats over the world's extent on 0.2 m cells (unseen cells count ln 2)."""
@@ -306,7 +339,8 @@ def _metrics(result: EpisodeResult, evaluator: Evaluator, robot: Robot, seed: in
     steps = len(result.stamps)
     error = positions(result.estimate) - positions(result.truth)
     prob = stack.map.prob()
-    missed = evaluator.missed_area(stack, prob)
+    missed_regions = evaluator.missed_regions(stack, prob)
+    missed = float(sum(r["area_m2"] for r in missed_regions))
     return {
         "world": result.world.name,
         "method": c.stack.explorer.method,
@@ -328,6 +362,7 @@ def _metrics(result: EpisodeResult, evaluator: Evaluator, robot: Robot, seed: in
         "entropy_rate_nats_per_step": float((curve[-1, 3] - curve[0, 3]) / max(steps, 1)),
         "coverage": float(curve[-1, 2]),
         "missed_area_m2": missed,
+        "missed_regions": missed_regions,
         "stop_failed": stop_failed(reason, missed),
         "travel_at_coverage_m": {f"{q:.2f}": _first_at(curve, q) for q in (0.90, 0.95, 0.99)},
         "auc": evaluator.auc(stack, prob),

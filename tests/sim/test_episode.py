@@ -64,13 +64,13 @@ def test_a_stop_is_failed_only_when_a_region_is_missed():
     assert stop_failed("step_budget", 0.0)
 
 
-def rooms_and_door() -> World:
+def rooms_and_door(door: int = 20) -> World:
     """Room A, x in [0.1, 5.0), and room B, x in [5.2, 9.2), both y in [0.1, 5.1), 5 cm cells;
-    between them a wall with a 1 m door at y in [2.0, 3.0)."""
+    between them a wall with a door of ``door`` cells (1 m by default) from y = 2.0."""
     grid = np.ones((104, 186), dtype=bool)
     grid[2:102, 2:100] = False
     grid[2:102, 104:184] = False
-    grid[40:60, 100:104] = False
+    grid[40:40 + door, 100:104] = False
     return World(grid, (0.05, 0.05), name="rooms_and_door")
 
 
@@ -85,18 +85,28 @@ def map_knowing(world: World, known) -> SimpleNamespace:
     return SimpleNamespace(map=SimpleNamespace(frame=frame, prob=lambda: prob)), prob
 
 
-def test_missed_area_is_the_unseen_part_of_a_room():
-    world = rooms_and_door()
+@pytest.mark.parametrize("door", [20, 12, 13])
+def test_missed_area_is_the_unseen_part_of_a_room_with_the_door_to_it(door):
+    world = rooms_and_door(door)
     # unknown: room B beyond x = 6.0, and a 0.5 m x 0.5 m patch of room A (0.25 m² < 1 m²)
     patch = lambda x, y: (x > 1.0) & (x < 1.5) & (y > 1.0) & (y < 1.5)  # noqa: E731
     stack, prob = map_knowing(world, lambda x, y: (x < 6.0) & ~patch(x, y))
     evaluator = Evaluator(world, (1.5, 2.5), 0.25)
     # room B's core (0.25 m from its walls, x up to 9.2 - 0.25) from x = 6.0: 2.95 m x 4.5 m
     room = (9.2 - 0.25 - 6.0) * (5.0 - 2 * 0.25)
-    assert evaluator.missed_area(stack, prob) == pytest.approx(room, abs=0.05 * 5.0)
-    assert evaluator.missed_area(stack, prob, min_region_m2=0.1) == pytest.approx(room + 0.25, abs=0.05 * 5.0)
+    [missed] = evaluator.missed_regions(stack, prob)
+    assert missed["area_m2"] == pytest.approx(room, abs=0.05 * 5.0)
+    assert missed["x"] == pytest.approx((6.0 + 9.2 - 0.25) / 2, abs=0.05)
+    assert missed["y"] == pytest.approx(2.6, abs=0.05)
+    # the door is 1.0, 0.6 or 0.65 m wide: its middle cell's clearance is half that, less half
+    # a cell when no cell lies at its middle (an even number of cells)
+    width = 0.05 * door
+    assert missed["door_m"] == pytest.approx(width - 0.05 * (door % 2 == 0), abs=1e-9)
+    small = evaluator.missed_regions(stack, prob, min_region_m2=0.1)
+    assert [r["area_m2"] for r in small] == pytest.approx([missed["area_m2"], 0.25], abs=0.05 * 5.0)
+    assert small[1]["door_m"] > 1.0                       # the patch lies in the start's room
     full, prob = map_knowing(world, lambda x, y: ~patch(x, y))
-    assert evaluator.missed_area(full, prob) == 0.0
+    assert evaluator.missed_regions(full, prob) == []
 
 
 def fake_goal_choice(step):

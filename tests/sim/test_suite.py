@@ -146,10 +146,13 @@ def test_starts_on_a_real_floor_plan_are_reachable_and_clear():
 
 
 def fabricated(world, method, seed, travel, coverage=0.995, reason="frontiers_exhausted", at99=None,
-               missed=0.0, collisions=0, wall=10.0, steps=1000, area=300.0, onboard=None):
+               missed=0.0, collisions=0, wall=10.0, steps=1000, area=300.0, onboard=None, doors=()):
+    """A finished run's outcome; ``doors``: the door to each missed region, m (``missed`` m² shared)."""
     from sim.episode import stop_failed
 
     own = {} if onboard is None else {"onboard_time_s": onboard}
+    if doors:
+        own["missed_regions"] = [{"area_m2": missed / len(doors), "door_m": d} for d in doors]
     return {"world": world, "method": method, "seed": seed, "crashed": False, "metrics": {**own,
         "travel_distance_m": travel, "coverage": coverage, "termination_reason": reason,
         "travel_at_coverage_m": {"0.90": None, "0.95": None, "0.99": at99}, "missed_area_m2": missed,
@@ -168,7 +171,8 @@ def outcomes():
         fabricated("cave.png", "grid", 0, 50.0, at99=50.0),                               # ok, tail 0
         fabricated("cave.png", "grid", 1, 100.0, coverage=0.97, reason="step_budget", collisions=2),
         fabricated("big.yaml", "gp", 0, 300.0, coverage=0.992, reason="no_reachable_goal", missed=4.0,
-                   at99=280.0, wall=40.0, onboard=30.0, steps=2000, area=2500.0),         # failed stop
+                   at99=280.0, wall=40.0, onboard=30.0, steps=2000, area=2500.0,
+                   doors=(0.6, 0.75)),                                            # failed stop
         crashed("big.yaml", "gp", 1),
         fabricated("big.yaml", "grid", 0, 200.0, coverage=0.999, reason="no_reachable_goal", at99=190.0),
         crashed("big.yaml", "grid", 1),
@@ -181,6 +185,7 @@ def test_the_summary_counts_successes_failures_and_pairs_the_travel():
     s = suite_summary(outcomes(), wall_s=600.0)
     assert (s["runs"], s["finished"], s["succeeded"], s["crashed"]) == (8, 6, 4, 2)
     assert (s["collisions"], s["step_budget_stops"], s["failed_stops"]) == (2, 1, 1)
+    assert s["failed_behind_narrow_doors"] == 1                 # both its regions behind < 0.8 m
     # pairs (world, seed) with both methods finished: cave 0 (60/50), cave 1 (80/100), big 0 (300/200)
     assert s["pairs"] == 3 and s["travel_ratio"] == pytest.approx((1.2 + 0.8 + 1.5) / 3)
     # tails of the runs that reached 99 %: 6/60, 20/80, 0, 20/300, 10/200
@@ -191,9 +196,20 @@ def test_the_summary_counts_successes_failures_and_pairs_the_travel():
     assert s["reference"] == "cave.png" and s["reference_ms_per_scan"] == pytest.approx(11.0)
     line = summary_line(s)
     assert line.startswith("suite: 4/8 runs (50 %) ended by themselves with >= 99 % coverage; 2 crashed, "
-                           "2 collisions, 1 step-budget stops, 1 failed stops")
+                           "2 collisions, 1 step-budget stops, 1 failed stops (missed >= 1 m²; "
+                           "1 only behind doors < 0.8 m)")
     assert "gp/grid travel 1.17 (mean of 3 paired ratios)" in line and "1.36x cave.png" in line
     assert "\n" not in line
+
+
+def test_a_failed_stop_is_put_down_to_narrow_doors_only_when_every_missed_region_is_behind_one():
+    from sim.suite import behind_narrow_doors
+
+    failed = lambda doors: fabricated("w", "gp", 0, 10.0, missed=4.0, doors=doors)["metrics"]  # noqa: E731
+    assert behind_narrow_doors(failed((0.6, 0.79)))
+    assert not behind_narrow_doors(failed((0.6, 0.8)))         # one region behind a door it must pass
+    assert not behind_narrow_doors(failed(()))                 # written before doors were measured
+    assert not behind_narrow_doors(fabricated("w", "gp", 0, 10.0, doors=(0.6,))["metrics"])  # not failed
 
 
 def test_a_row_per_world_and_method():
