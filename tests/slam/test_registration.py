@@ -55,6 +55,23 @@ def test_corridor_is_degenerate_and_follows_the_odometry_prior():
     assert math.sqrt(match.covariance[0, 0]) > 5 * math.sqrt(match.covariance[1, 1])
 
 
+def test_a_scan_of_fewer_points_than_a_match_rests_on_is_no_evidence_even_with_a_prior():
+    """office_g: turning 0.4 m from a wall, 23 points of which fewer than ``min_points`` met a
+    line; the point-to-point levels had turned the scan 7° off the wheels. Given the wheels'
+    information, the unrefined pose passed for one fused with them. Now the match holds no
+    information, and the front end keeps the wheels' prediction."""
+    config = RegistrationConfig()
+    reference = gtsam.Pose2(1.5, 1.0, 0.6)
+    submap = submap_from(cast(reference, ROOM), reference, config)
+    points = cast(reference, ROOM).points()[:config.min_points - 1]
+    off = reference.compose(gtsam.Pose2(0.0, 0.0, math.radians(7)))
+    prior = (reference, np.diag([1e5, 1e5, 1e4]))
+    match = Registration(config).refine(points, submap, off, prior)
+    assert not match.information.any() and match.pose.equals(off, 1e-12)
+    enough = Registration(config).refine(cast(reference, ROOM).points(), submap, off, prior)
+    assert np.all(np.linalg.eigvalsh(enough.information - prior[1]) > 0)   # the scan's own, and the prior's
+
+
 def test_adaptive_breakpoint_keeps_normals_of_an_oblique_wall_but_not_across_a_jump():
     """A wall 1.5 m to the left up to x = 4 m, then a recess to 3.5 m, seen by a 1° laser from the
     origin. Two hits Δφ apart on a wall met at incidence a lie r·sin Δφ / sin a apart (r the nearer
