@@ -142,7 +142,8 @@ class Match:
         pose: the scan's pose in the submap frame.
         information: (3, 3) in the pose's tangent space (x, y, θ): the point-to-line Hessian,
             plus the prior's information when a prior was given; near zero along a direction
-            the scan cannot observe (a featureless corridor), zero when nothing matched.
+            the scan cannot observe (a featureless corridor), zero when nothing matched (fewer
+            than ``min_points`` correspondences with a line), prior or not.
         inlier_fraction: share of scan points within ``inlier_distance`` of the submap.
         degenerate: (k, 3) unit tangent directions the scan cannot observe (k = 0 normally).
         sigma: residual standard deviation (m).
@@ -199,10 +200,10 @@ class Registration:
         corridor) follow the odometry. Without a prior those directions keep their initial value.
 
         Fewer than ``min_points`` correspondences with a line are no evidence: the match's
-        information is then zero, prior or not, and its pose the one it started from, unrefined
-        and unfused. (Given the prior's information instead, such a match passed for one fused
-        with the wheels: office_g, turning 0.4 m from a wall, 23 points, 4-7° a scan off the
-        wheels for three scans.)
+        information is then zero, prior or not, and its pose is where the refinement stopped,
+        not fused with the prior. (Given the prior's information instead, such a match passed
+        for one fused with the wheels: office_g, turning 0.4 m from a wall, 23 points, 4-7° a
+        scan off the wheels for three scans.)
         """
         c = self.config
         degenerate = np.zeros((0, 3))
