@@ -168,7 +168,7 @@ class Evaluator:
         pass to get there (within a cell below it: a door an even number of cells wide has no
         cell at its middle). A room missed behind a door as narrow as the robot's diameter and
         margins tells another story than one behind a wide door."""
-        rows, cols = np.nonzero(self.reachable)
+        rows, cols = self.cells
         box = slice(rows.min(), rows.max() + 1), slice(cols.min(), cols.max() + 1)
         clearance = self.world.clearance()[box]
         region = region[box]
