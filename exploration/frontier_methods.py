@@ -224,8 +224,8 @@ class GridFrontier:
 
 class MissedByF(GridFrontier):
     """The C-frontier's stop check for frontiers F misses: the grid method's significant
-    regions, kept where the COM does not know the space beside them either (most of the
-    unknown cells next to a region are unknown on Λ too, |Λ − 0.5| ≤ ``KNOWN``).
+    regions, kept where the COM does not read the space beside them free either (most of the
+    unknown cells next to a region read Λ ≥ 0.5 − ``KNOWN``: unknown, or occupied).
 
     F is low along a frontier that runs beside a wall, where ‖∇Λo‖ and Λo weigh against it:
     lab_e's GP run looked down a room's 0.3 m wide strip of floor along its wall (Λ 0.35-0.45,
@@ -234,12 +234,16 @@ class MissedByF(GridFrontier):
     face the costmap grid is unknown too, but the free GP, leaking through the block's other
     faces, reads it free (Λ 0.13-0.20 beside the Stage cave's faces, whose looks showed the
     blocks' insides, 3.4 m²): without the COM's word, every Stage cave run drove 20 m on to
-    them."""
+    them. Λ reading occupied there is no such word: the obstacle GP joins a door's jambs
+    across it (``DoorFrontier``). lab_a's GP run (seed 2) saw a 4.6 m² room through a 0.55 m
+    door at its corner as a wedge of beams; of the unknown cells beside the wedge's 16-cell
+    region, 12 were unknown on Λ, 13 free (the free GP leaking past the wedge) and 3 occupied
+    (the jambs joined), and the run stopped with the room unseen."""
 
     def frontier(self, snapshot: MapSnapshot) -> Frontier:
         found = super().frontier(snapshot)
         unknown = np.abs(evidence(snapshot) - 0.5) <= KNOWN
-        unknown_on_com = np.abs(snapshot.prob - 0.5) <= KNOWN
+        not_free_on_com = snapshot.prob >= 0.5 - KNOWN
         h, w = unknown.shape
         steps = np.array([(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if dx or dy])
         regions = []
@@ -247,7 +251,7 @@ class MissedByF(GridFrontier):
             near = np.unique((region[:, None, :] + steps).reshape(-1, 2), axis=0)
             ix, iy = np.clip(near[:, 0], 0, w - 1), np.clip(near[:, 1], 0, h - 1)
             beside = unknown[iy, ix]
-            if beside.any() and unknown_on_com[iy, ix][beside].mean() > 0.5:
+            if beside.any() and not_free_on_com[iy, ix][beside].mean() > 0.5:
                 regions.append(region)
         cells = np.vstack(regions) if regions else np.zeros((0, 2), int)
         return dataclasses.replace(found, cells=cells, regions=tuple(regions))

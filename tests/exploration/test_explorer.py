@@ -593,6 +593,21 @@ def test_the_c_frontier_stops_where_the_com_reads_the_space_beyond_such_a_fronti
     assert plan.goal is None and plan.done == "frontiers_exhausted"
 
 
+def test_the_c_frontier_does_not_stop_where_the_com_reads_occupied_beside_such_a_frontier():
+    """The same strip, where the column beside it reads as beside a door seen through at its
+    corner (lab_a): in alternate rows, the free GP leaking past the strip (Λ 0.2) or the obstacle
+    GP joining hits across it (Λ 0.8, Λo 0.8); unknown beyond. Half the unknown cells beside the
+    region read known on Λ, but most do not read free: the run goes on."""
+    snapshot = strip_past_the_door()
+    rows = np.arange(13, DOOR[1] + 1)
+    snapshot.prob[rows, 85] = np.where(rows % 2 == 0, 0.8, 0.2)
+    snapshot.prob_occ[rows, 85] = np.where(rows % 2 == 0, 0.8, FREE_OCC)
+    assert frontier_map(snapshot.prob, snapshot.prob_occ, snapshot.resolution).max() < 0.6
+    plan = Explorer(ExplorerConfig(method="gp")).plan(snapshot, ROBOT)
+    assert plan.done is None and plan.goal is not None
+    assert 7.2 <= plan.goal[0] <= 8.2 and DOOR[0] * RES <= plan.goal[1] <= DOOR[1] * RES
+
+
 def with_wall_hits(snapshot, *extra):
     """``snapshot`` with a hit at the centre of each wall cell, and at the ``extra`` (x, y)."""
     iy, ix = np.nonzero(snapshot.prob == WALL)
