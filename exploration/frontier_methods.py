@@ -21,7 +21,7 @@ from exploration.frontier import frontier_map, frontier_map_within
 from exploration.gain import visible_unknown_area
 from exploration.goals import Blacklist, FrontierCluster, extract_goals
 from exploration.grid_frontier import grid_frontiers, region_size
-from exploration.openings import holding_hits, in_a_wall_gap
+from exploration.openings import holding_hits, in_a_wall_gap, seen_through_a_gap
 from exploration.paths import Approach, best_cell_near, nearest_reachable_cell, path_to
 from mapping.metrics import KNOWN
 from mapping.occupancy import MapSnapshot
@@ -244,6 +244,9 @@ class MissedByF(GridFrontier):
         found = super().frontier(snapshot)
         unknown = np.abs(evidence(snapshot) - 0.5) <= KNOWN
         not_free_on_com = snapshot.prob >= 0.5 - KNOWN
+        origin, resolution = np.asarray(snapshot.origin, float), snapshot.resolution
+        hits = cKDTree(snapshot.hits if snapshot.hits is not None and len(snapshot.hits) else np.zeros((0, 2)))
+        door = self.config.min_frontier_cells * resolution
         h, w = unknown.shape
         steps = np.array([(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if dx or dy])
         regions = []
@@ -251,7 +254,8 @@ class MissedByF(GridFrontier):
             near = np.unique((region[:, None, :] + steps).reshape(-1, 2), axis=0)
             ix, iy = np.clip(near[:, 0], 0, w - 1), np.clip(near[:, 1], 0, h - 1)
             beside = unknown[iy, ix]
-            if beside.any() and not_free_on_com[iy, ix][beside].mean() > 0.5:
+            if beside.any() and (not_free_on_com[iy, ix][beside].mean() > 0.5 or seen_through_a_gap(
+                    origin + resolution * region, hits, door, self.config.robot_radius, math.sqrt(2) * resolution)):
                 regions.append(region)
         cells = np.vstack(regions) if regions else np.zeros((0, 2), int)
         return dataclasses.replace(found, cells=cells, regions=tuple(regions))

@@ -65,6 +65,49 @@ def in_a_wall_gap(points: np.ndarray, hits: cKDTree, reach: float, tolerance: fl
     return not said
 
 
+def seen_through_a_gap(points: np.ndarray, hits: cKDTree, door: float, side: float,
+                       tolerance: float) -> bool:
+    """Does the region ``points`` (k, 2), meters, run from a gap between two jambs into the
+    space past it, as the edge of a wedge of beams seen through a door? One of its ends lies
+    between the hit nearest it and the nearest on its far side (at least 120 degrees round from
+    the first), ``2 * side`` to ``door`` m apart with no hit between them (farther than
+    ``tolerance`` from both, within it of the line joining them), and its other end lies
+    ``2 * side`` m or more off that line. A door at a room's corner, where the corridor's wall
+    and the room's meet offset or across each other, is no gap of a wall's line
+    (``in_a_wall_gap``): lab_a's and lab_e's GP runs saw rooms through 0.55 m doors so, as
+    wedges of beams whose frontier ran 1.3-1.5 m into them. The unseen stretch of a face
+    between its end and a face across it, or a step between two offset faces, runs along the
+    line joining its ends' hits; a block's corner has no jamb across from it."""
+    axis = _direction(points)
+    if axis is None:
+        return False
+    along = (points - points.mean(axis=0)) @ axis
+    ends = points[np.argmin(along)], points[np.argmax(along)]
+    for end, other in (ends, ends[::-1]):
+        near = hits.data[hits.query_ball_point(end, door)]
+        if len(near) < 2:
+            continue
+        away = near - end
+        first = int(np.argmin(np.einsum("ij,ij->i", away, away)))
+        cos = away @ away[first] / np.maximum(np.linalg.norm(away, axis=1) * np.linalg.norm(away[first]), 1e-12)
+        across = np.flatnonzero(cos <= -0.5)
+        if not len(across):
+            continue
+        second = across[np.argmin(np.linalg.norm(away[across], axis=1))]
+        a, b = near[first], near[second]
+        width = float(np.linalg.norm(b - a))
+        if not 2 * side <= width <= door:
+            continue
+        chord = (b - a) / width
+        t = (near - a) @ chord
+        off = np.abs((near - a) @ np.array([-chord[1], chord[0]]))
+        if np.any((off <= tolerance) & (t > tolerance) & (t < width - tolerance)):
+            continue
+        if abs((other - a) @ np.array([-chord[1], chord[0]])) >= 2 * side:
+            return True
+    return False
+
+
 def _wall_line(hits: np.ndarray, width: float) -> tuple[np.ndarray, np.ndarray]:
     """(centre, direction), each (2,): the line of the most of ``hits`` (k, 2), meters, that a
     band ``width`` m wide holds (directions every degree), through their mean along their

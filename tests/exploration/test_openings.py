@@ -3,7 +3,7 @@
 import numpy as np
 from scipy.spatial import cKDTree
 
-from exploration.openings import holding_hits, in_a_wall_gap
+from exploration.openings import holding_hits, in_a_wall_gap, seen_through_a_gap
 
 STEP = 0.05                 # a hit every 5 cm along a wall
 TOLERANCE = 0.1 * np.sqrt(2)  # a 0.1 m cell's diagonal
@@ -57,6 +57,52 @@ def test_a_door_beside_a_corner_is_a_door():
     hits = np.vstack([wall((0, 2.0), (0, 5)), wall((0.8, 2.0), (3, 2.0)), wall((-3, 2.0), (0, 2.0))])
     t = np.linspace(0.0, 1.0, 8)[:, None]
     assert door(hits, np.array([0.05, 2.5]) + t * np.array([0.7, -0.45]))
+
+
+def through(hits, points):
+    return seen_through_a_gap(points, cKDTree(hits), 1.0, 0.25, TOLERANCE)
+
+
+def line(start, end, step=0.1):
+    """(k, 2) cell centres every ``step`` m from ``start`` to ``end`` (m)."""
+    start, end = np.asarray(start, float), np.asarray(end, float)
+    n = int(round(np.linalg.norm(end - start) / step)) + 1
+    return start + np.linspace(0.0, 1.0, n)[:, None] * (end - start)
+
+
+def corner_door(gap):
+    """lab_a's room: a corridor's wall along y = 1.8 m up to x = 0, the room's wall along
+    x = 0 from y = 2.2 m up, and the room's front wall along y = 2.0 m from x = ``gap`` on:
+    the door, ``gap`` m wide, meets the corner; the two walls along it are 0.2 m apart."""
+    return np.vstack([wall((-3, 1.8), (0, 1.8)), wall((0, 2.2), (0, 5)), wall((gap, 2.0), (4, 2.0))])
+
+
+def test_a_wedge_of_beams_through_a_door_at_a_room_s_corner_is_seen_through_a_gap():
+    """Beams through the door left a wedge of free space whose frontier runs from the front
+    wall's end 1.4 m into the room, read from either end."""
+    hits, wedge = corner_door(0.75), line((0.65, 2.05), (0.1, 3.4))
+    assert through(hits, wedge) and through(hits, wedge[::-1])
+
+
+def test_a_gap_narrower_than_the_robot_or_wider_than_a_door_is_not_seen_through():
+    wedge = line((0.25, 2.05), (0.1, 3.4))
+    assert not through(corner_door(0.3), wedge)
+    assert not through(corner_door(1.5), line((1.4, 2.05), (0.1, 3.4)))
+
+
+def test_a_frontier_along_the_line_of_its_jambs_is_not_seen_through():
+    """The step between two offset faces, and the unseen stretch of a face between its end
+    and a face across it: the frontier runs along the line joining its ends' hits."""
+    step = np.vstack([wall((-2.0, 2.0), (0, 2.0)), wall((0.6, 2.5), (2.6, 2.5))])
+    assert not through(step, line((0.05, 2.05), (0.55, 2.45)))
+    stretch = np.vstack([wall((0, 2.8), (0, 5)), wall((-2.0, 2.0), (2.0, 2.0))])
+    assert not through(stretch, region(0.05, 2.1, 2.7))
+
+
+def test_the_unseen_face_of_a_block_s_corner_is_not_seen_through():
+    """A block's face along y = 2 m seen up to its corner at x = 0; its face along x = 0,
+    unseen, leaves a frontier from the corner up: no jamb lies across from the corner."""
+    assert not through(wall((0, 2.0), (3, 2.0)), region(-0.05, 2.1, 3.5))
 
 
 def test_a_door_through_a_thick_wall_whose_jambs_were_seen_is_a_door():
