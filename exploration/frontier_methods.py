@@ -247,6 +247,15 @@ class MissedByF(GridFrontier):
         origin, resolution = np.asarray(snapshot.origin, float), snapshot.resolution
         hits = cKDTree(snapshot.hits if snapshot.hits is not None and len(snapshot.hits) else np.zeros((0, 2)))
         door = self.config.min_frontier_cells * resolution
+        open_unknown = beside_the_open_unknown(snapshot, self.costmap)
+        free = classify(evidence(snapshot), self.costmap)[0]
+
+        def free_near(centre: np.ndarray, radius: float) -> np.ndarray:
+            (x0, y0), (x1, y1) = (np.floor((centre - radius - origin) / resolution).astype(int),
+                                  np.ceil((centre + radius - origin) / resolution).astype(int) + 1)
+            iy, ix = np.nonzero(free[max(y0, 0):max(y1, 0), max(x0, 0):max(x1, 0)])
+            cells = origin + resolution * np.column_stack([ix + max(x0, 0), iy + max(y0, 0)])
+            return cells[np.linalg.norm(cells - centre, axis=1) <= radius]
         h, w = unknown.shape
         steps = np.array([(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if dx or dy])
         regions = []
@@ -254,8 +263,10 @@ class MissedByF(GridFrontier):
             near = np.unique((region[:, None, :] + steps).reshape(-1, 2), axis=0)
             ix, iy = np.clip(near[:, 0], 0, w - 1), np.clip(near[:, 1], 0, h - 1)
             beside = unknown[iy, ix]
-            if beside.any() and (not_free_on_com[iy, ix][beside].mean() > 0.5 or seen_through_a_gap(
-                    origin + resolution * region, hits, door, self.config.robot_radius, math.sqrt(2) * resolution)):
+            if beside.any() and (not_free_on_com[iy, ix][beside].mean() > 0.5 or (
+                    open_unknown[region[:, 1], region[:, 0]].any() and seen_through_a_gap(
+                        origin + resolution * region, hits, door, self.config.robot_radius,
+                        math.sqrt(2) * resolution, free_near))):
                 regions.append(region)
         cells = np.vstack(regions) if regions else np.zeros((0, 2), int)
         return dataclasses.replace(found, cells=cells, regions=tuple(regions))
@@ -301,11 +312,7 @@ class DoorFrontier(GridFrontier):
         a door's region lengthens as the robot nears it and sees past (office_d: a 28 m² room
         was left when its door's region grew from 8 cells as the robot came into the doorway)."""
         found = super().frontier(snapshot)
-        free, occupied = classify(evidence(snapshot), self.costmap)
-        labels, _ = ndimage.label(~free & ~occupied)
-        edge = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
-        outside = np.isin(labels, edge[edge > 0])
-        beside = ndimage.binary_dilation(outside, ndimage.generate_binary_structure(2, 1))
+        beside = beside_the_open_unknown(snapshot, self.costmap)
         regions = tuple(r for r in found.regions
                         if (any_length or len(r) < self.config.min_frontier_cells)
                         and beside[r[:, 1], r[:, 0]].any())
@@ -520,6 +527,16 @@ def spread(points: np.ndarray, first: np.ndarray, k: int) -> np.ndarray:
         taken.append(j)
         gap = np.minimum(gap, np.linalg.norm(points - points[j], axis=1))
     return points[taken]
+
+
+def beside_the_open_unknown(snapshot: MapSnapshot, costmap: CostmapConfig) -> np.ndarray:
+    """(h, w) bool, the cells of the evidence grid beside (or in) unknown space that reaches the
+    map's edge: what a frontier there opens onto is no block's inside, enclosed by seen space."""
+    free, occupied = classify(evidence(snapshot), costmap)
+    labels, _ = ndimage.label(~free & ~occupied)
+    edge = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
+    outside = np.isin(labels, edge[edge > 0])
+    return ndimage.binary_dilation(outside, ndimage.generate_binary_structure(2, 1))
 
 
 def evidence(snapshot: MapSnapshot) -> np.ndarray:

@@ -9,6 +9,7 @@ of a wall's line, the wall running on along that line either side of it (``in_a_
 from __future__ import annotations
 
 import math
+from typing import Callable
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -66,13 +67,17 @@ def in_a_wall_gap(points: np.ndarray, hits: cKDTree, reach: float, tolerance: fl
 
 
 def seen_through_a_gap(points: np.ndarray, hits: cKDTree, door: float, side: float,
-                       tolerance: float) -> bool:
+                       tolerance: float, free_near: Callable[[np.ndarray, float], np.ndarray]) -> bool:
     """Does the region ``points`` (k, 2), meters, run from a gap between two jambs into the
     space past it, as the edge of a wedge of beams seen through a door? One of its ends lies
     between the hit nearest it and the nearest on its far side (at least 120 degrees round from
     the first), ``2 * side`` to ``door`` m apart with no hit between them (farther than
     ``tolerance`` from both, within it of the line joining them), and its other end lies
-    ``2 * side`` m or more off that line. A door at a room's corner, where the corridor's wall
+    ``2 * side`` m or more off that line, on its side with less free space within ``door`` m
+    of the gap's middle (``free_near(centre, radius)``: the (m, 2) free cells' centres there):
+    past the gap lies a wedge of beams, before it the space they were cast from. A frontier
+    running from a gap between a wall's hits back into the room it was seen from is no door.
+    A door at a room's corner, where the corridor's wall
     and the room's meet offset or across each other, is no gap of a wall's line
     (``in_a_wall_gap``): lab_a's and lab_e's GP runs saw rooms through 0.55 m doors so, as
     wedges of beams whose frontier ran 1.3-1.5 m into them. The unseen stretch of a face
@@ -103,7 +108,13 @@ def seen_through_a_gap(points: np.ndarray, hits: cKDTree, door: float, side: flo
         off = np.abs((near - a) @ np.array([-chord[1], chord[0]]))
         if np.any((off <= tolerance) & (t > tolerance) & (t < width - tolerance)):
             continue
-        if abs((other - a) @ np.array([-chord[1], chord[0]])) >= 2 * side:
+        normal = np.array([-chord[1], chord[0]])
+        past = (other - a) @ normal
+        if abs(past) < 2 * side:
+            continue
+        middle = (a + b) / 2
+        sides = np.sign((free_near(middle, door) - middle) @ normal)
+        if np.count_nonzero(sides == np.sign(past)) < np.count_nonzero(sides == -np.sign(past)):
             return True
     return False
 

@@ -59,8 +59,24 @@ def test_a_door_beside_a_corner_is_a_door():
     assert door(hits, np.array([0.05, 2.5]) + t * np.array([0.7, -0.45]))
 
 
-def through(hits, points):
-    return seen_through_a_gap(points, cKDTree(hits), 1.0, 0.25, TOLERANCE)
+def cells(x0, x1, y0, y1):
+    """(k, 2) the centres of 0.1 m cells in the box, meters."""
+    x, y = np.meshgrid(np.arange(x0, x1 + 1e-9, 0.1), np.arange(y0, y1 + 1e-9, 0.1))
+    return np.column_stack([x.ravel(), y.ravel()])
+
+
+#: The free space the beams were cast from: a corridor below y = 1.8 m
+CORRIDOR = cells(-3.0, 4.0, 0.5, 1.7)
+
+
+def through(hits, points, free=CORRIDOR):
+    """``seen_through_a_gap`` with the free cells ``free`` (k, 2) and the region's own."""
+    free = np.vstack([free, points])
+
+    def free_near(centre, radius):
+        return free[np.linalg.norm(free - centre, axis=1) <= radius]
+
+    return seen_through_a_gap(points, cKDTree(hits), 1.0, 0.25, TOLERANCE, free_near)
 
 
 def line(start, end, step=0.1):
@@ -97,6 +113,15 @@ def test_a_frontier_along_the_line_of_its_jambs_is_not_seen_through():
     assert not through(step, line((0.05, 2.05), (0.55, 2.45)))
     stretch = np.vstack([wall((0, 2.8), (0, 5)), wall((-2.0, 2.0), (2.0, 2.0))])
     assert not through(stretch, region(0.05, 2.1, 2.7))
+
+
+def test_a_frontier_running_from_a_gap_back_into_the_space_it_was_seen_from_is_not_seen_through():
+    """A wall along y = 2 m whose hits leave a 0.7 m gap (grazed, or a door never seen
+    through), nothing seen past it, and a frontier running from the gap 1 m back down into the
+    corridor: it lies on the side of the gap with the more free space."""
+    hits = np.vstack([wall((-3, 2.0), (0, 2.0)), wall((0.7, 2.0), (4, 2.0))])
+    free = cells(-3.0, 4.0, 0.5, 1.9)
+    assert not through(hits, region(0.35, 0.9, 1.9), free)
 
 
 def test_the_unseen_face_of_a_block_s_corner_is_not_seen_through():
