@@ -244,18 +244,7 @@ class MissedByF(GridFrontier):
         found = super().frontier(snapshot)
         unknown = np.abs(evidence(snapshot) - 0.5) <= KNOWN
         not_free_on_com = snapshot.prob >= 0.5 - KNOWN
-        origin, resolution = np.asarray(snapshot.origin, float), snapshot.resolution
-        hits = cKDTree(snapshot.hits if snapshot.hits is not None and len(snapshot.hits) else np.zeros((0, 2)))
-        door = self.config.min_frontier_cells * resolution
-        open_unknown = beside_the_open_unknown(snapshot, self.costmap)
-        free = classify(evidence(snapshot), self.costmap)[0]
-
-        def free_near(centre: np.ndarray, radius: float) -> np.ndarray:
-            (x0, y0), (x1, y1) = (np.floor((centre - radius - origin) / resolution).astype(int),
-                                  np.ceil((centre + radius - origin) / resolution).astype(int) + 1)
-            iy, ix = np.nonzero(free[max(y0, 0):max(y1, 0), max(x0, 0):max(x1, 0)])
-            cells = origin + resolution * np.column_stack([ix + max(x0, 0), iy + max(y0, 0)])
-            return cells[np.linalg.norm(cells - centre, axis=1) <= radius]
+        through = self._seen_through(snapshot)
         h, w = unknown.shape
         steps = np.array([(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if dx or dy])
         regions = []
@@ -263,13 +252,36 @@ class MissedByF(GridFrontier):
             near = np.unique((region[:, None, :] + steps).reshape(-1, 2), axis=0)
             ix, iy = np.clip(near[:, 0], 0, w - 1), np.clip(near[:, 1], 0, h - 1)
             beside = unknown[iy, ix]
-            if beside.any() and (not_free_on_com[iy, ix][beside].mean() > 0.5 or (
-                    open_unknown[region[:, 1], region[:, 0]].any() and seen_through_a_gap(
-                        origin + resolution * region, hits, door, self.config.robot_radius,
-                        math.sqrt(2) * resolution, free_near))):
+            if beside.any() and (not_free_on_com[iy, ix][beside].mean() > 0.5 or through(region)):
                 regions.append(region)
         cells = np.vstack(regions) if regions else np.zeros((0, 2), int)
         return dataclasses.replace(found, cells=cells, regions=tuple(regions))
+
+    def _seen_through(self, snapshot: MapSnapshot) -> Callable[[np.ndarray], bool]:
+        """Is a region (k, 2) of cells the edge of a wedge of beams seen through a gap
+        (``seen_through_a_gap``, a door's longest width at most), beside unknown space that
+        reaches the map's edge?"""
+        origin, resolution = np.asarray(snapshot.origin, float), snapshot.resolution
+        if snapshot.hits is None or not len(snapshot.hits):
+            return lambda region: False
+        hits = cKDTree(snapshot.hits)
+        open_unknown = beside_the_open_unknown(snapshot, self.costmap)
+        free = classify(evidence(snapshot), self.costmap)[0]
+        door = self.config.min_frontier_cells * resolution
+
+        def free_near(centre: np.ndarray, radius: float) -> np.ndarray:
+            low = np.maximum(np.floor((centre - radius - origin) / resolution).astype(int), 0)
+            high = np.maximum(np.ceil((centre + radius - origin) / resolution).astype(int) + 1, 0)
+            iy, ix = np.nonzero(free[low[1]:high[1], low[0]:high[0]])
+            cells = origin + resolution * (np.column_stack([ix, iy]) + low)
+            return cells[np.linalg.norm(cells - centre, axis=1) <= radius]
+
+        def through(region: np.ndarray) -> bool:
+            return bool(open_unknown[region[:, 1], region[:, 0]].any()) and seen_through_a_gap(
+                origin + resolution * region, hits, door, self.config.robot_radius,
+                math.sqrt(2) * resolution, free_near)
+
+        return through
 
 
 class DoorFrontier(GridFrontier):
