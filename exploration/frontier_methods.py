@@ -225,7 +225,8 @@ class GridFrontier:
 class MissedByF(GridFrontier):
     """The C-frontier's stop check for frontiers F misses: the grid method's significant
     regions, kept where the COM does not read the space beside them free either (most of the
-    unknown cells next to a region read Λ ≥ 0.5 − ``KNOWN``: unknown, or occupied).
+    unknown cells next to a region read Λ ≥ 0.5 − ``KNOWN``: unknown, or occupied), or where
+    the region is the edge of a wedge of beams seen through a gap (``_seen_through``).
 
     F is low along a frontier that runs beside a wall, where ‖∇Λo‖ and Λo weigh against it:
     lab_e's GP run looked down a room's 0.3 m wide strip of floor along its wall (Λ 0.35-0.45,
@@ -238,7 +239,12 @@ class MissedByF(GridFrontier):
     across it (``DoorFrontier``). lab_a's GP run (seed 2) saw a 4.6 m² room through a 0.55 m
     door at its corner as a wedge of beams; of the unknown cells beside the wedge's 16-cell
     region, 12 were unknown on Λ, 13 free (the free GP leaking past the wedge) and 3 occupied
-    (the jambs joined), and the run stopped with the room unseen."""
+    (the jambs joined), and the run stopped with the room unseen. Past a door, the free GP
+    leaks beside the wedge of beams seen through it as it does round a block: lab_e's GP runs
+    (seeds 1 and 2) saw a 2 m² alcove through a 0.55 m door at its corner, 19 of the 20
+    unknown cells beside the wedge's region read free, and both runs stopped with it unseen.
+    What the hits say tells the two apart: beams passed between two jambs to the wedge, and
+    none passes through a block's face."""
 
     def frontier(self, snapshot: MapSnapshot) -> Frontier:
         found = super().frontier(snapshot)

@@ -4,6 +4,8 @@ A door seen edge-on and the stretch of a grazed wall between two of its hits bot
 frontier region as long as a door, free cells beside unknown space. The laser's endpoints tell
 them apart: a beam ended in a grazed wall's cells (``holding_hits``), and a door lies in a gap
 of a wall's line, the wall running on along that line either side of it (``in_a_wall_gap``).
+Beams through a door also leave a longer region, the edge of the wedge they crossed past it,
+running from the gap between its jambs into the room (``seen_through_a_gap``).
 """
 
 from __future__ import annotations
