@@ -8,7 +8,7 @@ import pytest
 
 from exploration.costmap import passable
 from exploration.explorer import Explorer, ExplorerConfig
-from exploration.frontier_methods import CFrontier, look, within_reach
+from exploration.frontier_methods import CFrontier, MissedByF, look, within_reach
 from exploration.frontier import frontier_map
 from exploration.gain import visible_unknown_area
 from exploration.goals import GoalConfig, extract_goals
@@ -606,6 +606,40 @@ def test_the_c_frontier_does_not_stop_where_the_com_reads_occupied_beside_such_a
     plan = Explorer(ExplorerConfig(method="gp")).plan(snapshot, ROBOT)
     assert plan.done is None and plan.goal is not None
     assert 7.2 <= plan.goal[0] <= 8.2 and DOOR[0] * RES <= plan.goal[1] <= DOOR[1] * RES
+
+
+def wedge_past_a_corner_door(hits=True):
+    """A 0.6 m door at the top of the right wall (rows 54-59, y 5.4-5.9 m), meeting the top
+    wall, which runs on past it; the robot saw through it a wedge of free space between the top
+    wall and the lowest beam, up to x = 9.6 m, whose lower edge runs 1.6 m into the space
+    past the door (on the costmap grid; the rest past the wall unknown there). The COM reads
+    the cells beside that edge free, the free GP leaking past the wedge (Λ 0.2), as it reads
+    a block's unseen face; with ``hits``, a hit at the centre of each wall cell."""
+    snapshot = room([("right", 54, 60, 0)])
+    snapshot.prob[60:62, 82:100] = snapshot.prob_occ[60:62, 82:100] = WALL
+    grid = snapshot.prob.copy()
+    for ix in range(82, 97):
+        low = 54 + int(round((ix - 81) * 0.4))          # the lowest beam, rising 0.4 a cell
+        grid[low:60, ix] = FREE
+        snapshot.prob[low:60, ix] = FREE
+        snapshot.prob[max(low - 2, 0):low, ix] = 0.2
+    snapshot = dataclasses.replace(snapshot, traversable=grid)
+    return with_wall_hits(snapshot) if hits else snapshot
+
+
+def missed_regions(snapshot):
+    """The regions ``MissedByF`` keeps, as the C-frontier's stop check reads them: their
+    cells' centres (m)."""
+    check = MissedByF(ExplorerConfig(method="gp"))
+    return [snapshot.origin + snapshot.resolution * r for r in check.frontier(snapshot).regions]
+
+
+def test_the_c_frontier_s_stop_checks_a_wedge_seen_through_a_door_where_the_com_reads_free():
+    """The wedge's edge is kept: the hits show the beams passed between the door's jambs to
+    it. Without the hits, the COM's free reading beside it drops it, as at a block's face."""
+    in_wedge = lambda r: (r[:, 0] > 8.2).all() and (r[:, 1] > 5.2).all()
+    assert any(in_wedge(r) for r in missed_regions(wedge_past_a_corner_door()))
+    assert not any(in_wedge(r) for r in missed_regions(wedge_past_a_corner_door(hits=False)))
 
 
 def with_wall_hits(snapshot, *extra):
