@@ -68,8 +68,8 @@ def in_a_wall_gap(points: np.ndarray, hits: cKDTree, reach: float, tolerance: fl
     return not said
 
 
-def seen_through_a_gap(points: np.ndarray, hits: cKDTree, door: float, side: float,
-                       tolerance: float, free_near: Callable[[np.ndarray, float], np.ndarray]) -> bool:
+def seen_through_a_gap(points: np.ndarray, hits: cKDTree, door: float, side: float, tolerance: float,
+                       free_near: Callable[[np.ndarray, float], np.ndarray]) -> bool:
     """Does the region ``points`` (k, 2), meters, run from a gap between two jambs into the
     space past it, as the edge of a wedge of beams seen through a door? One of its ends lies
     between the hit nearest it and the nearest on its far side (at least 120 degrees round from
@@ -79,10 +79,10 @@ def seen_through_a_gap(points: np.ndarray, hits: cKDTree, door: float, side: flo
     of the gap's middle (``free_near(centre, radius)``: the (m, 2) free cells' centres there):
     past the gap lies a wedge of beams, before it the space they were cast from. A frontier
     running from a gap between a wall's hits back into the room it was seen from is no door.
-    A door at a room's corner, where the corridor's wall
-    and the room's meet offset or across each other, is no gap of a wall's line
-    (``in_a_wall_gap``): lab_a's and lab_e's GP runs saw rooms through 0.55 m doors so, as
-    wedges of beams whose frontier ran 1.3-1.5 m into them. The unseen stretch of a face
+    A door at a room's corner, where the corridor's wall and the room's meet offset or across
+    each other, is no gap of a wall's line (``in_a_wall_gap``): lab_a's and lab_e's GP runs saw
+    rooms through 0.55 m doors so, as wedges of beams whose frontier ran 1.3-1.5 m into them.
+    The unseen stretch of a face
     between its end and a face across it, or a step between two offset faces, runs along the
     line joining its ends' hits; a block's corner has no jamb across from it."""
     axis = _direction(points)
@@ -96,21 +96,21 @@ def seen_through_a_gap(points: np.ndarray, hits: cKDTree, door: float, side: flo
             continue
         away = near - end
         first = int(np.argmin(np.einsum("ij,ij->i", away, away)))
-        cos = away @ away[first] / np.maximum(np.linalg.norm(away, axis=1) * np.linalg.norm(away[first]), 1e-12)
+        length = np.linalg.norm(away, axis=1)
+        cos = away @ away[first] / np.maximum(length * length[first], 1e-12)
         across = np.flatnonzero(cos <= -0.5)
         if not len(across):
             continue
-        second = across[np.argmin(np.linalg.norm(away[across], axis=1))]
+        second = across[np.argmin(length[across])]
         a, b = near[first], near[second]
         width = float(np.linalg.norm(b - a))
         if not 2 * side <= width <= door:
             continue
         chord = (b - a) / width
-        t = (near - a) @ chord
-        off = np.abs((near - a) @ np.array([-chord[1], chord[0]]))
+        normal = np.array([-chord[1], chord[0]])
+        t, off = (near - a) @ chord, np.abs((near - a) @ normal)
         if np.any((off <= tolerance) & (t > tolerance) & (t < width - tolerance)):
             continue
-        normal = np.array([-chord[1], chord[0]])
         past = (other - a) @ normal
         if abs(past) < 2 * side:
             continue
