@@ -8,6 +8,7 @@ frontier clusters ranked best first, each with the reachable goal cell that obse
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable
@@ -266,23 +267,28 @@ class MissedByF(GridFrontier):
     def _seen_through(self, snapshot: MapSnapshot) -> Callable[[np.ndarray], bool]:
         """Is a region (k, 2) of cells the edge of a wedge of beams seen through a gap
         (``seen_through_a_gap``, a door's longest width at most), beside unknown space that
-        reaches the map's edge?"""
+        reaches the map's edge? What it reads (the hits' tree, the grid's labels) is built at
+        the first region asked about: a goal this check gave is kept on its regions at every
+        replan, and most of them pass on the COM's word."""
         origin, resolution = np.asarray(snapshot.origin, float), snapshot.resolution
         if snapshot.hits is None or not len(snapshot.hits):
             return lambda region: False
-        hits = cKDTree(snapshot.hits)
-        open_unknown = beside_the_open_unknown(snapshot, self.costmap)
-        free = classify(evidence(snapshot), self.costmap)[0]
         door = self.config.min_frontier_cells * resolution
+
+        @functools.cache
+        def read() -> tuple[cKDTree, np.ndarray, np.ndarray]:
+            free, occupied = classify(evidence(snapshot), self.costmap)
+            return cKDTree(snapshot.hits), beside_the_open_unknown(free, occupied), free
 
         def free_near(centre: np.ndarray, radius: float) -> np.ndarray:
             low = np.maximum(np.floor((centre - radius - origin) / resolution).astype(int), 0)
             high = np.maximum(np.ceil((centre + radius - origin) / resolution).astype(int) + 1, 0)
-            iy, ix = np.nonzero(free[low[1]:high[1], low[0]:high[0]])
+            iy, ix = np.nonzero(read()[2][low[1]:high[1], low[0]:high[0]])
             cells = origin + resolution * (np.column_stack([ix, iy]) + low)
             return cells[np.linalg.norm(cells - centre, axis=1) <= radius]
 
         def through(region: np.ndarray) -> bool:
+            hits, open_unknown, _ = read()
             return bool(open_unknown[region[:, 1], region[:, 0]].any()) and seen_through_a_gap(
                 origin + resolution * region, hits, door, self.config.robot_radius,
                 math.sqrt(2) * resolution, free_near)
@@ -330,7 +336,7 @@ class DoorFrontier(GridFrontier):
         a door's region lengthens as the robot nears it and sees past (office_d: a 28 m² room
         was left when its door's region grew from 8 cells as the robot came into the doorway)."""
         found = super().frontier(snapshot)
-        beside = beside_the_open_unknown(snapshot, self.costmap)
+        beside = beside_the_open_unknown(*classify(evidence(snapshot), self.costmap))
         regions = tuple(r for r in found.regions
                         if (any_length or len(r) < self.config.min_frontier_cells)
                         and beside[r[:, 1], r[:, 0]].any())
@@ -547,10 +553,10 @@ def spread(points: np.ndarray, first: np.ndarray, k: int) -> np.ndarray:
     return points[taken]
 
 
-def beside_the_open_unknown(snapshot: MapSnapshot, costmap: CostmapConfig) -> np.ndarray:
-    """(h, w) bool, the cells of the evidence grid beside (or in) unknown space that reaches the
-    map's edge: what a frontier there opens onto is no block's inside, enclosed by seen space."""
-    free, occupied = classify(evidence(snapshot), costmap)
+def beside_the_open_unknown(free: np.ndarray, occupied: np.ndarray) -> np.ndarray:
+    """(h, w) bool, the cells of a grid (its ``free`` and ``occupied`` (h, w) masks) beside (or
+    in) unknown space that reaches the map's edge: what a frontier there opens onto is no
+    block's inside, enclosed by seen space."""
     labels, _ = ndimage.label(~free & ~occupied)
     edge = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
     outside = np.isin(labels, edge[edge > 0])

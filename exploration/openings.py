@@ -82,9 +82,9 @@ def seen_through_a_gap(points: np.ndarray, hits: cKDTree, door: float, side: flo
     A door at a room's corner, where the corridor's wall and the room's meet offset or across
     each other, is no gap of a wall's line (``in_a_wall_gap``): lab_a's and lab_e's GP runs saw
     rooms through 0.55 m doors so, as wedges of beams whose frontier ran 1.3-1.5 m into them.
-    The unseen stretch of a face
-    between its end and a face across it, or a step between two offset faces, runs along the
-    line joining its ends' hits; a block's corner has no jamb across from it."""
+    The unseen stretch of a face between its end and a face across it, or a step between two
+    offset faces, runs along the line joining its ends' hits; a block's corner has no jamb
+    across from it."""
     axis = _direction(points)
     if axis is None:
         return False
@@ -95,8 +95,8 @@ def seen_through_a_gap(points: np.ndarray, hits: cKDTree, door: float, side: flo
         if len(near) < 2:
             continue
         away = near - end
-        first = int(np.argmin(np.einsum("ij,ij->i", away, away)))
         length = np.linalg.norm(away, axis=1)
+        first = int(np.argmin(length))
         cos = away @ away[first] / np.maximum(length * length[first], 1e-12)
         across = np.flatnonzero(cos <= -0.5)
         if not len(across):
