@@ -8,6 +8,7 @@ keyframes at their (corrected) poses, keeping the hyperparameters.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Iterable
 
@@ -19,10 +20,11 @@ from mapping.config import COMConfig, KernelConfig
 from mapping.drift import DriftMonitor, js_divergence
 from mapping.fusion import BCMAccumulator, bcm_fuse
 from mapping.gp import GaussianProcess, fit_hyperparameters
-from mapping.grid import GridFrame
+from mapping.grid import GridFrame, cell_key
 from mapping.kernels import Kernel
 from mapping.localgp import predict_blocks
 from mapping.occupancy import MapSnapshot
+from mapping.regeneration import moved, pose_array, reframed, replayed_frame, tile_mask, touches
 from mapping.squash import squash
 from mapping.training import BeamSamples, beam_samples, voxel_thin
 from slam.scan import LaserScan
@@ -32,6 +34,32 @@ from slam.scan import LaserScan
 MIN_FIT_POINTS = 10
 #: Smallest GP variance fused (a zero variance would give an infinite BCM precision).
 VAR_FLOOR = 1e-6
+
+
+@dataclass
+class _Fused:
+    """A keyframe as fused: the sensor pose it was fused at ((3,); None when given as points),
+    its thinned points in the world frame, the earlier keyframes whose points joined its
+    training pool, and the blocks (``cell_key``s) and global cell bounds (lo, hi) of its query
+    set (none when it has no points)."""
+
+    pose: np.ndarray | None
+    origin: np.ndarray
+    hits: np.ndarray
+    free: np.ndarray
+    pool: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, int))
+    blocks: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int64))
+    bounds: tuple[np.ndarray, np.ndarray] | None = None
+
+    @property
+    def empty(self) -> bool:
+        return len(self.hits) + len(self.free) == 0
+
+    @property
+    def reach(self) -> float:
+        """Meters from the sensor to its farthest point."""
+        pts = np.concatenate([self.hits, self.free])
+        return float(np.hypot(*(pts - self.origin).T).max()) if len(pts) else 0.0
 
 
 @dataclass
@@ -84,41 +112,31 @@ class ContinuousOccupancyMap:
             raise TypeError(f"COM.update: pose must be a gtsam.Pose2, got {type(pose).__name__}")
         if not (np.isfinite([pose.x(), pose.y(), pose.theta()]).all()):
             raise ValueError(f"COM.update: pose {pose} is not finite")
-        return self.update_samples(beam_samples(pose, scan, self.config.training))
+        return self.update_samples(beam_samples(pose, scan, self.config.training), pose)
 
-    def update_samples(self, samples: BeamSamples) -> float:
-        """Fuse one keyframe given as labelled points (hits, free) in the world frame."""
+    def update_samples(self, samples: BeamSamples, pose: gtsam.Pose2 | None = None) -> float:
+        """Fuse one keyframe given as labelled points (hits, free) in the world frame, taken at
+        sensor ``pose`` when known (a regeneration then relearns it only if it moved)."""
         t = self.config.training
         hits = samples.hits[voxel_thin(samples.hits, t.voxel)]
         free = samples.free[voxel_thin(samples.free, t.free_voxel)]
-        origin = np.asarray(samples.origin, float)
         if not self.obstacle_.fitted and min(len(hits), len(free)) >= MIN_FIT_POINTS:
             self._fit(hits, free)                                             # line 5
-        pool_hits, pool_free = self._training_pool(origin, hits, free)       # line 10
-        if len(hits) + len(free) > 0:
-            cells, blocks, start = self._query_set(origin, hits, free)       # line 9
-            self._grow(cells)               # may reject a wild pose: nothing is stored then
-        self._keyframe_origins.append(origin)
-        self._keyframe_hits.append(hits)
-        self._keyframe_free.append(free)
-        self.keyframes += 1
-        if len(hits) + len(free) == 0:
+        kf = _Fused(None if pose is None else pose_array(pose), np.asarray(samples.origin, float),
+                    hits, free)
+        kf.pool = self._pool(kf.origin, self._fused_keyframes)             # line 10
+        if kf.empty:
+            self._fused_keyframes.append(kf)
+            self.keyframes += 1
             return 0.0
+        cells, blocks, start = self._query_set(kf)                            # line 9
+        self._grow(cells)                   # may reject a wild pose: nothing is stored then
+        kf.blocks, kf.bounds = cell_key(blocks), (cells.min(0), cells.max(0))
+        self._fused_keyframes.append(kf)
+        self.keyframes += 1
         flat = self.frame.flat(cells)
         before = self.prob_at(flat)
-        local = []
-        for gp, pts, acc in ((self.obstacle_, pool_hits, self._occ),
-                             (self.free_, pool_free, self._free)):
-            if len(pts) == 0:
-                local.append((np.full(len(flat), 0.5), np.full(len(flat), np.inf)))
-                continue
-            if not gp.sigma2_min > 0:      # not fitted yet (no frame with both kinds of points)
-                gp.sigma2_min = _sigma2_min(gp.kernel, gp.noise_var, pts)
-            mean, var = self._predict(gp, pts, blocks, cells, start)          # line 11
-            var = np.maximum(var, VAR_FLOOR)
-            p = squash(mean, var, gp.sigma2_min, self.config.squash.gamma, gp.sign)  # 12-14
-            acc.add(flat, p, var)                                             # lines 15-16
-            local.append((p, var))
+        local = self._add(kf, cells, blocks, start)
         p_local, _ = bcm_fuse([local[0][0], local[1][0]], [local[0][1], local[1][1]])
         return self._drift(before, p_local)
 
@@ -129,11 +147,66 @@ class ContinuousOccupancyMap:
         return self.drift.exceeded
 
     def regenerate(self, keyframes: Iterable[tuple[gtsam.Pose2, LaserScan]]) -> None:
-        """Reset the COM and relearn it from all ``keyframes`` (sensor pose, scan) at their
-        corrected poses (Section VII; Algorithm 1 with reset = true). θ stays fixed."""
-        self.reset()
-        for pose, scan in keyframes:
-            self.update(pose, scan)
+        """Relearn the COM from all ``keyframes`` (sensor pose, scan), the ones fused so far
+        first and in their order, at their corrected poses (Section VII; Algorithm 1 with reset
+        = true). θ stays fixed.
+
+        Only what the keyframes that moved (``drift.unmoved`` below) reach is relearnt: a
+        keyframe's local GPs read its own points and its training pool's, and each block of
+        its query set reads only the points nearest to it. So the blocks the dirty keyframes
+        (moved, or whose training pool moved or changed) cover, at their old and new poses, are
+        cleared and relearnt from every keyframe whose query set covers them, in order; the
+        other blocks' sums stand. The map is the one relearning from scratch gives, bit for
+        bit, with each unmoved keyframe at the pose it was fused at.
+        """
+        keyframes = list(keyframes)
+        old = self._fused_keyframes
+        if len(keyframes) < len(old):
+            raise ValueError(f"COM.regenerate: {len(keyframes)} keyframes, but {len(old)} "
+                             f"were fused")
+        tolerance = self.config.drift.unmoved
+        fused, dirty = [], np.zeros(len(keyframes), bool)
+        for k, (pose, scan) in enumerate(keyframes):
+            kept = old[k] if k < len(old) else None
+            if kept is not None and not moved(kept.pose, pose, tolerance and kept.reach, tolerance):
+                fused.append(dataclasses.replace(kept))
+                continue
+            samples = beam_samples(pose, scan, self.config.training)
+            t = self.config.training
+            fused.append(_Fused(pose_array(pose), np.asarray(samples.origin, float),
+                                samples.hits[voxel_thin(samples.hits, t.voxel)],
+                                samples.free[voxel_thin(samples.free, t.free_voxel)]))
+            dirty[k] = True
+        moved_ = dirty.copy()
+        for k, kf in enumerate(fused):
+            kf.pool = self._pool(kf.origin, fused[:k])
+            if k < len(old) and not dirty[k]:
+                dirty[k] = moved_[kf.pool].any() or not np.array_equal(kf.pool, old[k].pool)
+        queries = {}
+        for k in np.flatnonzero(dirty):
+            if moved_[k] and not fused[k].empty:
+                queries[k] = self._query_set(fused[k])
+                cells, blocks, _ = queries[k]
+                fused[k].blocks, fused[k].bounds = cell_key(blocks), (cells.min(0), cells.max(0))
+        cleared = np.unique(np.concatenate(
+            [np.zeros(0, np.int64)] + [fused[k].blocks for k in np.flatnonzero(dirty)]
+            + [old[k].blocks for k in np.flatnonzero(dirty[:len(old)])]))
+        bounds = [kf.bounds for kf in fused if kf.bounds is not None]
+        if bounds:
+            self._check_size(np.min([lo for lo, _ in bounds], 0), np.max([hi for _, hi in bounds], 0))
+        frame = replayed_frame(self.frame.resolution, bounds)
+        blocks_cleared = tile_mask(frame, cleared, self.config.query.block)
+        for acc in (self._occ, self._free):
+            acc.precision = np.where(blocks_cleared, 0.0, reframed(acc.precision, self.frame, frame))
+            acc.weighted = np.where(blocks_cleared, 0.0, reframed(acc.weighted, self.frame, frame))
+        self.frame, self._fused_keyframes, self.keyframes = frame, fused, len(fused)
+        for k, kf in enumerate(fused):
+            if kf.empty or not touches(kf.blocks, cleared).any():
+                continue
+            cells, blocks, start = queries.get(k) or self._query_set(kf)
+            inside = touches(cell_key(blocks), cleared)
+            start, cells = _blocks_of(start, inside), cells[np.repeat(inside, np.diff(start))]
+            self._add(kf, cells, blocks[inside], start)
         self.drift.reset()
 
     def reset(self) -> None:
@@ -141,9 +214,7 @@ class ContinuousOccupancyMap:
         self.frame = GridFrame(self.config.query.resolution)
         self._occ = BCMAccumulator((0, 0))
         self._free = BCMAccumulator((0, 0))
-        self._keyframe_origins: list[np.ndarray] = []
-        self._keyframe_hits: list[np.ndarray] = []
-        self._keyframe_free: list[np.ndarray] = []
+        self._fused_keyframes: list[_Fused] = []
         self.keyframes = 0
 
     # ---------------------------------------------------------------- map products
@@ -240,20 +311,37 @@ class ContinuousOccupancyMap:
             gp.sigma2_min = _sigma2_min(gp.kernel, gp.noise_var, own)
             gp.fitted = True
 
-    def _training_pool(self, origin, hits, free):
-        """This keyframe's points plus those of the ``history`` previous keyframes nearest to
-        the sensor (within the query window)."""
+    def _pool(self, origin: np.ndarray, previous: list[_Fused]) -> np.ndarray:
+        """Indices of the ``history`` keyframes of ``previous`` nearest to the sensor at
+        ``origin`` (within the query window), whose points join its training pool."""
         q = self.config.query
-        if q.history == 0 or not self._keyframe_origins:
-            return hits, free
-        origins = np.asarray(self._keyframe_origins)
-        d = np.hypot(*(origins - origin).T)
+        if q.history == 0 or not previous:
+            return np.zeros(0, int)
+        d = np.hypot(*(np.array([kf.origin for kf in previous]) - origin).T)
         near = np.flatnonzero(d < q.window / 2)
-        near = near[np.argsort(d[near], kind="stable")[:q.history]]
-        return (np.concatenate([hits] + [self._keyframe_hits[i] for i in near]),
-                np.concatenate([free] + [self._keyframe_free[i] for i in near]))
+        return near[np.argsort(d[near], kind="stable")[:q.history]]
 
-    def _query_set(self, origin, hits, free):
+    def _add(self, kf: _Fused, cells, blocks, start) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Predict both GPs of keyframe ``kf`` at ``cells`` (its query set, or part of it,
+        grouped by ``blocks``), squash and fuse them into Λo and Λf (lines 11-16). Returns
+        the local (probability, variance) of each GP."""
+        flat = self.frame.flat(cells)
+        local = []
+        for gp, own, acc in ((self.obstacle_, "hits", self._occ), (self.free_, "free", self._free)):
+            pts = np.concatenate([getattr(kf, own)] + [getattr(self._fused_keyframes[i], own) for i in kf.pool])
+            if len(pts) == 0:
+                local.append((np.full(len(flat), 0.5), np.full(len(flat), np.inf)))
+                continue
+            if not gp.sigma2_min > 0:      # not fitted yet (no frame with both kinds of points)
+                gp.sigma2_min = _sigma2_min(gp.kernel, gp.noise_var, pts)
+            mean, var = self._predict(gp, pts, blocks, cells, start)          # line 11
+            var = np.maximum(var, VAR_FLOOR)
+            p = squash(mean, var, gp.sigma2_min, self.config.squash.gamma, gp.sign)  # 12-14
+            acc.add(flat, p, var)                                             # lines 15-16
+            local.append((p, var))
+        return local
+
+    def _query_set(self, kf: _Fused):
         """Cells within ``near`` of this keyframe's training points and inside the window
         (line 9), grouped by block of block × block cells.
 
@@ -263,7 +351,7 @@ class ContinuousOccupancyMap:
         """
         q = self.config.query
         res = q.resolution
-        pts = np.concatenate([hits, free])
+        origin, pts = kf.origin, np.concatenate([kf.hits, kf.free])
         r = int(np.ceil(q.near / res))
         oy, ox = np.mgrid[-r:r + 1, -r:r + 1]
         disk = (ox ** 2 + oy ** 2) * res * res <= q.near ** 2 + 1e-12
@@ -274,7 +362,7 @@ class ContinuousOccupancyMap:
         hi = np.floor((origin + q.window / 2) / res)
         cells = _unique_cells(cells[np.all((cells >= lo) & (cells <= hi), axis=1)])
         block_of = np.floor_divide(cells, q.block)
-        key = _cell_key(block_of)
+        key = cell_key(block_of)
         order = np.argsort(key, kind="stable")
         cells, key, block_of = cells[order], key[order], block_of[order]
         first = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
@@ -300,16 +388,20 @@ class ContinuousOccupancyMap:
             lo = np.minimum(lo, [self.frame.ix0, self.frame.iy0])
             hi = np.maximum(hi, [self.frame.ix0 + self.frame.shape[1] - 1,
                                  self.frame.iy0 + self.frame.shape[0] - 1])
-        span = (hi - lo + 1).astype(float)
+        self._check_size(lo, hi)
+        pad = self.frame.ensure(cells.min(0), cells.max(0))
+        if pad is not None:
+            self._occ.pad(*pad)
+            self._free.pad(*pad)
+
+    def _check_size(self, lo: np.ndarray, hi: np.ndarray) -> None:
+        """Refuse a map spanning global cells ``lo`` .. ``hi`` larger than ``max_cells``."""
+        span = (np.asarray(hi) - np.asarray(lo) + 1).astype(float)
         if span[0] * span[1] > self.config.query.max_cells:
             r = self.resolution
             raise ValueError(f"COM: the map would grow to {span[0] * r:.0f} m x {span[1] * r:.0f} m "
                              f"({span[0] * span[1]:.3g} cells > max_cells "
                              f"{self.config.query.max_cells}); is the pose right?")
-        pad = self.frame.ensure(cells.min(0), cells.max(0))
-        if pad is not None:
-            self._occ.pad(*pad)
-            self._free.pad(*pad)
 
     def _drift(self, before: np.ndarray, local: np.ndarray) -> float:
         """Mean JS divergence (eq. 12) between the global Λ before this update and the local
@@ -325,15 +417,16 @@ class ContinuousOccupancyMap:
         return js
 
 
-def _cell_key(cells: np.ndarray) -> np.ndarray:
-    """(k, 2) integer cells -> (k,) int64 keys that order them row by row."""
-    return (cells[:, 1].astype(np.int64) << 32) + (cells[:, 0].astype(np.int64) + (1 << 31))
-
-
 def _unique_cells(cells: np.ndarray) -> np.ndarray:
     """Unique rows of (k, 2) integer cells (fast: one 1-D unique on int64 keys)."""
-    _, first = np.unique(_cell_key(cells), return_index=True)
+    _, first = np.unique(cell_key(cells), return_index=True)
     return cells[first]
+
+
+def _blocks_of(start: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """The (B' + 1,) offsets of the blocks flagged in ``keep`` (B,), their cells taken in
+    order, from the offsets ``start`` (B + 1,) of all B blocks."""
+    return np.r_[0, np.cumsum(np.diff(start)[keep])]
 
 
 def _sigma2_min(kernel: Kernel, noise_var: float, pts: np.ndarray) -> float:

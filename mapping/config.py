@@ -116,6 +116,9 @@ class DriftConfig(_Config):
     floor: float = Field(0.005, ge=0, description="smallest tolerated divergence, nats per cell")
     known: float = Field(0.1, ge=0, lt=0.5, description="cells compared: |Λ-0.5| > this in both")
     warmup: int = Field(10, ge=1, description="updates seen before anything is cumulated")
+    unmoved: float = Field(0.0, ge=0, description="meters: a regeneration keeps a keyframe where "
+                           "it was fused when none of its points moved this far (0: only a "
+                           "keyframe whose pose is unchanged), and relearns only what the others reach")
 
 
 class COMConfig(_Config):

@@ -8,6 +8,18 @@ import numpy as np
 GROW = 64
 
 
+def cell_key(cells: np.ndarray) -> np.ndarray:
+    """(k, 2) integer cells (cx, cy) -> (k,) int64 keys that order them row by row."""
+    cells = np.asarray(cells, np.int64)
+    return (cells[:, 1] << 32) + (cells[:, 0] + (1 << 31))
+
+
+def key_cells(keys: np.ndarray) -> np.ndarray:
+    """``cell_key``'s inverse: (k,) keys -> (k, 2) cells (cx, cy)."""
+    keys = np.asarray(keys, np.int64)
+    return np.column_stack([(keys & 0xFFFFFFFF) - (1 << 31), keys >> 32])
+
+
 class GridFrame:
     """Cells ``c = floor(x / resolution)`` in global integer coordinates; the stored window
     covers columns ``ix0 .. ix0 + w - 1`` and rows ``iy0 .. iy0 + h - 1`` (row 0 at the bottom).

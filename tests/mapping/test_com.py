@@ -96,6 +96,81 @@ def test_regeneration_removes_the_doubled_walls_of_perturbed_poses(room):
     assert auc_vs_truth(bad, room) > 0.97
 
 
+def _predicted_cells(com):
+    """A list that gathers how many cells each GP prediction of ``com`` queries from now on."""
+    cells, predict = [], com._predict
+    com._predict = lambda gp, pts, blocks, q, start: cells.append(len(q)) or predict(gp, pts, blocks, q, start)
+    return cells
+
+
+def test_regeneration_relearns_what_moved_and_gives_the_map_relearnt_from_scratch(room):
+    loop = room_tour()
+    poses = loop + loop[:10]
+    scans = scans_at(room, poses, seed=1)
+    error = gtsam.Pose2(0.35, -0.25, 0.06)
+    wrong = poses[:8] + [error.compose(p) for p in poses[8:12]] + poses[12:]
+    fresh = ContinuousOccupancyMap()
+    for p, s in zip(poses, scans):
+        fresh.update(p, s)
+    com = ContinuousOccupancyMap()
+    # keyframes 8-11 off, those after them train on their points, 20-25 not fused yet
+    for p, s in zip(wrong[:20], scans[:20]):
+        com.update(p, s)
+    com.regenerate(zip(poses, scans))
+    _assert_same_map(com, fresh)
+    again = _predicted_cells(com)
+    before = com.prob()
+    com.regenerate(zip(poses, scans))                 # nothing moved: nothing relearnt
+    assert again == [] and np.array_equal(com.prob(), before)
+
+
+def _assert_same_map(com, fresh):
+    """Same frame and the same BCM sums, bit for bit."""
+    assert (com.frame.ix0, com.frame.iy0, com.frame.shape) == (
+        fresh.frame.ix0, fresh.frame.iy0, fresh.frame.shape)
+    for a, b in ((com._occ, fresh._occ), (com._free, fresh._free)):
+        np.testing.assert_array_equal(a.precision, b.precision)
+        np.testing.assert_array_equal(a.weighted, b.weighted)
+
+
+def test_regeneration_leaves_the_blocks_only_unmoved_keyframes_reach(corridor):
+    poses = [gtsam.Pose2(x, 2.0, 0.0) for x in np.arange(1.5, 12.6, 0.5)]
+    scans = scans_at(corridor, poses, seed=3)
+    wrong = poses[:-3] + [gtsam.Pose2(0.3, 0.1, 0.05).compose(p) for p in poses[-3:]]
+    fresh = ContinuousOccupancyMap()
+    everything = _predicted_cells(fresh)
+    for p, s in zip(poses, scans):
+        fresh.update(p, s)
+    com = ContinuousOccupancyMap()
+    for p, s in zip(wrong, scans):
+        com.update(p, s)
+    relearnt = _predicted_cells(com)
+    com.regenerate(zip(poses, scans))
+    _assert_same_map(com, fresh)
+    # the last keyframes (x >= 11.5 m) reach back 10 m: the blocks at x < 1.5 m stand
+    assert 0 < sum(relearnt) < sum(everything)
+
+
+def test_regeneration_keeps_keyframes_whose_points_moved_less_than_the_tolerance(room):
+    poses = room_tour()[:12]
+    scans = scans_at(room, poses, seed=2)
+    nudged = [gtsam.Pose2(0.004, 0.0, 0.0).compose(p) for p in poses[:6]] + [
+        gtsam.Pose2(0.0, 0.0, 0.003).compose(p) for p in poses[6:]]
+    com = ContinuousOccupancyMap(COMConfig(drift={"unmoved": 0.01}))
+    for p, s in zip(poses, scans):
+        com.update(p, s)
+    before = com.prob()
+    relearnt = _predicted_cells(com)
+    com.regenerate(zip(nudged, scans))
+    # a 4 mm shift keeps its keyframes; a 0.003 rad turn moves points up to the scans' reach
+    # (beyond 3.3 m) by a centimetre or more, so those keyframes are relearnt
+    reach = max(kf.reach for kf in com._fused_keyframes[6:])
+    assert reach * 0.003 > 0.01
+    assert relearnt and not np.array_equal(com.prob(), before)
+    assert [kf.pose[0] for kf in com._fused_keyframes[:6]] == [p.x() for p in poses[:6]]
+    assert [kf.pose[2] for kf in com._fused_keyframes[6:]] == pytest.approx([p.theta() for p in nudged[6:]])
+
+
 def test_bad_scans_never_crash_or_put_nan_in_the_map():
     com = ContinuousOccupancyMap()
     angles = np.deg2rad(np.arange(-90, 91, 1.0))
