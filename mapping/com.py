@@ -117,13 +117,7 @@ class ContinuousOccupancyMap:
     def update_samples(self, samples: BeamSamples, pose: gtsam.Pose2 | None = None) -> float:
         """Fuse one keyframe given as labelled points (hits, free) in the world frame, taken at
         sensor ``pose`` when known (a regeneration then relearns it only if it moved)."""
-        t = self.config.training
-        hits = samples.hits[voxel_thin(samples.hits, t.voxel)]
-        free = samples.free[voxel_thin(samples.free, t.free_voxel)]
-        if not self.obstacle_.fitted and min(len(hits), len(free)) >= MIN_FIT_POINTS:
-            self._fit(hits, free)                                             # line 5
-        kf = _Fused(None if pose is None else pose_array(pose), np.asarray(samples.origin, float),
-                    hits, free)
+        kf = self._keyframe(samples, pose)
         kf.pool = self._pool(kf.origin, self._fused_keyframes)             # line 10
         if kf.empty:
             self._fused_keyframes.append(kf)
@@ -171,11 +165,7 @@ class ContinuousOccupancyMap:
             if kept is not None and not moved(kept.pose, pose, tolerance and kept.reach, tolerance):
                 fused.append(dataclasses.replace(kept))
                 continue
-            samples = beam_samples(pose, scan, self.config.training)
-            t = self.config.training
-            fused.append(_Fused(pose_array(pose), np.asarray(samples.origin, float),
-                                samples.hits[voxel_thin(samples.hits, t.voxel)],
-                                samples.free[voxel_thin(samples.free, t.free_voxel)]))
+            fused.append(self._keyframe(beam_samples(pose, scan, self.config.training), pose))
             dirty[k] = True
         moved_ = dirty.copy()
         for k, kf in enumerate(fused):
@@ -310,6 +300,17 @@ class ContinuousOccupancyMap:
                     se_bounds=kc.se_bounds)
             gp.sigma2_min = _sigma2_min(gp.kernel, gp.noise_var, own)
             gp.fitted = True
+
+    def _keyframe(self, samples: BeamSamples, pose: gtsam.Pose2 | None) -> _Fused:
+        """The keyframe's points, thinned; θ fitted on the first frame that has enough
+        of both kinds (line 5)."""
+        t = self.config.training
+        hits = samples.hits[voxel_thin(samples.hits, t.voxel)]
+        free = samples.free[voxel_thin(samples.free, t.free_voxel)]
+        if not self.obstacle_.fitted and min(len(hits), len(free)) >= MIN_FIT_POINTS:
+            self._fit(hits, free)                                             # line 5
+        return _Fused(None if pose is None else pose_array(pose), np.asarray(samples.origin, float),
+                      hits, free)
 
     def _pool(self, origin: np.ndarray, previous: list[_Fused]) -> np.ndarray:
         """Indices of the ``history`` keyframes of ``previous`` nearest to the sensor at

@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 from collections.abc import Iterable
+from dataclasses import dataclass, field
 
 import gtsam
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from mapping.grid import GridFrame
+from mapping.grid import GridFrame, cell_key, key_cells
 from mapping.occupancy import MapSnapshot
+from mapping.regeneration import moved, pose_array, reframed, replayed_frame, tile_keys, tile_mask, touches
 from mapping.training import voxel_thin
 from slam.scan import LaserScan
 
@@ -26,6 +28,31 @@ class LogOddsConfig(BaseModel):
     l_max: float = Field(10.0, gt=0, description="clamp, high")
     max_range: float = Field(10.0, gt=0, description="m; hits beyond count as no return, "
                              "traced as free up to this range")
+    unmoved: float = Field(0.0, ge=0, description="meters: a regeneration keeps a keyframe where "
+                           "it was traced when none of its rays' ends moved this far (0: only a "
+                           "keyframe whose pose is unchanged), and rebuilds only what the others reach")
+
+
+#: A regeneration rebuilds the grid in tiles of this many cells a side.
+TILE = 16
+
+
+@dataclass
+class _Traced:
+    """An update as traced: the sensor pose of its whole scan ((3,); None: rays given, or
+    beams left out), the length of its longest ray, the global cell bounds (lo, hi) and
+    tiles (``cell_key``s) its rays reach (none when it has no rays), and its marked hits."""
+
+    pose: np.ndarray | None
+    reach: float
+    bounds: tuple[np.ndarray, np.ndarray] | None = None
+    tiles: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    hits: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+
+
+def _tiles_of(keys: np.ndarray) -> np.ndarray:
+    """(k,) the ``TILE`` tiles' keys of cells given by (k,) ``cell_key``s."""
+    return cell_key(np.floor_divide(key_cells(keys), TILE))
 
 
 class LogOddsGrid:
@@ -43,11 +70,18 @@ class LogOddsGrid:
         # each update's marked hits, one per half cell, appended to a buffer that doubles when
         # full: ``hits`` hands out views of it, never copies (it is read at every replan)
         self._hits, self._count = np.zeros((0, 2)), 0
+        self._traced: list[_Traced] = []
 
     def update(self, pose: gtsam.Pose2, scan: LaserScan, beams: np.ndarray | None = None,
                mark_hits: np.ndarray | None = None) -> None:
         """Integrate ``scan`` at sensor ``pose``; optionally only the beams flagged in ``beams``
         (n,) and marking as occupied only the hits flagged in ``mark_hits`` (n,)."""
+        whole = beams is None and mark_hits is None
+        self.update_rays(*self._rays(pose, scan, beams, mark_hits), pose if whole else None)
+
+    def _rays(self, pose: gtsam.Pose2, scan: LaserScan, beams: np.ndarray | None = None,
+              mark_hits: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``update_rays``' (origin, ends, is_hit) of ``scan`` at ``pose``."""
         c = self.config
         n = len(scan)
         use = np.ones(n, bool) if beams is None else np.asarray(beams, bool)
@@ -59,14 +93,33 @@ class LogOddsGrid:
         theta = pose.theta() + scan.angles[use]
         origin = np.array([pose.x(), pose.y()])
         ends = origin + r[:, None] * np.column_stack([np.cos(theta), np.sin(theta)])
-        self.update_rays(origin, ends, (hit & mark)[use])
+        return origin, ends, (hit & mark)[use]
 
-    def update_rays(self, origin: np.ndarray, ends: np.ndarray, is_hit: np.ndarray) -> None:
+    def update_rays(self, origin: np.ndarray, ends: np.ndarray, is_hit: np.ndarray,
+                    pose: gtsam.Pose2 | None = None) -> None:
         """Trace rays from ``origin`` (2,) to ``ends`` (k, 2); ``is_hit`` (k,) marks the ends
-        that are obstacles. Vectorised: each ray is sampled every half cell."""
-        c = self.config
-        if len(ends) == 0:
+        that are obstacles. ``pose``: the sensor pose the rays are a whole scan from, when they
+        are (a regeneration then retraces them only if it moved)."""
+        traced, free, hit = self._trace(origin, ends, is_hit, pose)
+        self._traced.append(traced)
+        if traced.bounds is None:
             return
+        pad = self.frame.ensure(*traced.bounds)
+        if pad is not None:
+            (b0, b1), (a0, a1) = pad
+            self.logodds = np.pad(self.logodds, ((b0, a0), (b1, a1)))
+        self._append_hits(traced.hits)
+        self._add(free, hit)
+
+    def _trace(self, origin: np.ndarray, ends: np.ndarray, is_hit: np.ndarray,
+               pose: gtsam.Pose2 | None) -> tuple[_Traced, np.ndarray, np.ndarray]:
+        """The cells the rays free and occupy (``cell_key``s, sorted; a hit's cell is not also
+        freed), and the update's record. Vectorised: each ray is sampled every half cell."""
+        c = self.config
+        reach = float(np.hypot(*(ends - origin).T).max()) if len(ends) else 0.0
+        traced = _Traced(None if pose is None else pose_array(pose), reach)
+        if len(ends) == 0:
+            return traced, np.zeros(0, np.int64), np.zeros(0, np.int64)
         step = 0.5 * c.resolution
         d = ends - origin
         length = np.hypot(d[:, 0], d[:, 1])
@@ -78,18 +131,22 @@ class LogOddsGrid:
         free_cells = self.frame.cells(samples)
         hit_cells = self.frame.cells(ends[is_hit])
         all_cells = np.vstack([free_cells, hit_cells, self.frame.cells(origin[None])])
-        pad = self.frame.ensure(all_cells.min(0), all_cells.max(0))
-        if pad is not None:
-            (b0, b1), (a0, a1) = pad
-            self.logodds = np.pad(self.logodds, ((b0, a0), (b1, a1)))
+        traced.bounds = all_cells.min(0), all_cells.max(0)
         marked = ends[is_hit]
-        self._append_hits(marked[voxel_thin(marked, step)])
-        hit_flat = np.unique(self.frame.flat(hit_cells))
-        free_flat = np.setdiff1d(np.unique(self.frame.flat(free_cells)), hit_flat, assume_unique=True)
+        traced.hits = marked[voxel_thin(marked, step)]
+        hit = np.unique(cell_key(hit_cells))
+        free = np.setdiff1d(np.unique(cell_key(free_cells)), hit, assume_unique=True)
+        traced.tiles = tile_keys(key_cells(np.concatenate([free, hit])), TILE)
+        return traced, free, hit
+
+    def _add(self, free: np.ndarray, hit: np.ndarray) -> None:
+        """Add ``l_free`` to the cells of ``free`` keys and ``l_occ`` to those of ``hit``,
+        clamped (the other cells are within the clamp already)."""
+        c = self.config
         L = self.logodds.reshape(-1)
-        L[free_flat] += c.l_free
-        L[hit_flat] += c.l_occ
-        np.clip(L, c.l_min, c.l_max, out=L)
+        free, hit = self.frame.flat(key_cells(free)), self.frame.flat(key_cells(hit))
+        L[free] = np.clip(L[free] + c.l_free, c.l_min, c.l_max)
+        L[hit] = np.clip(L[hit] + c.l_occ, c.l_min, c.l_max)
 
     @property
     def needs_regeneration(self) -> bool:
@@ -97,10 +154,42 @@ class LogOddsGrid:
         return True
 
     def regenerate(self, keyframes: Iterable[tuple[gtsam.Pose2, LaserScan]]) -> None:
-        """Rebuild the grid from ``keyframes`` (sensor pose, scan) at their corrected poses."""
-        self.reset()
-        for pose, scan in keyframes:
-            self.update(pose, scan)
+        """Rebuild the grid from ``keyframes`` (sensor pose, scan), the ones traced so far
+        first and in their order, at their corrected poses.
+
+        Only the tiles of ``TILE`` x ``TILE`` cells that the moved keyframes' rays crossed,
+        before or after (``unmoved`` below), are rebuilt, from every keyframe whose rays cross
+        them, in order: the grid is the one rebuilt from scratch, bit for bit, with each
+        unmoved keyframe at the pose it was traced at."""
+        keyframes = list(keyframes)
+        old = self._traced
+        if len(keyframes) < len(old):
+            raise ValueError(f"LogOddsGrid.regenerate: {len(keyframes)} keyframes, but "
+                             f"{len(old)} were traced")
+        tolerance = self.config.unmoved
+        traced, cells = [], {}
+        for k, (pose, scan) in enumerate(keyframes):
+            kept = old[k] if k < len(old) else None
+            if kept is not None and not moved(kept.pose, pose, tolerance and kept.reach, tolerance):
+                traced.append(kept)
+                continue
+            record, free, hit = self._trace(*self._rays(pose, scan), pose)
+            traced.append(record)
+            cells[k] = free, hit
+        cleared = np.unique(np.concatenate([np.zeros(0, np.int64)] + [traced[k].tiles for k in cells]
+                                           + [old[k].tiles for k in cells if k < len(old)]))
+        frame = replayed_frame(self.frame.resolution, (t.bounds for t in traced))
+        self.logodds = np.where(tile_mask(frame, cleared, TILE), 0.0,
+                                reframed(self.logodds, self.frame, frame))
+        self.frame, self._traced = frame, traced
+        for k, record in enumerate(traced):
+            if record.bounds is None or not touches(record.tiles, cleared).any():
+                continue
+            free, hit = cells[k] if k in cells else self._trace(
+                *self._rays(gtsam.Pose2(*record.pose), keyframes[k][1]), None)[1:]
+            self._add(free[touches(_tiles_of(free), cleared)], hit[touches(_tiles_of(hit), cleared)])
+        self._hits, self._count = np.zeros((0, 2)), 0
+        self._append_hits(np.concatenate([np.zeros((0, 2))] + [t.hits for t in traced]))
 
     @property
     def origin(self) -> np.ndarray:

@@ -10,6 +10,8 @@ from mapping.logodds import LogOddsConfig, LogOddsGrid
 from mapping.training import beam_samples
 from slam.scan import LaserScan
 
+from simworlds import room_tour, scans_at
+
 
 def test_grid_frees_the_cells_a_beam_crosses_and_occupies_its_hit_cell():
     grid = LogOddsGrid(LogOddsConfig(l_occ=2.0, l_free=-0.5))
@@ -55,6 +57,70 @@ def test_grid_hits_are_every_update_s_hit_one_per_half_cell_in_views_that_never_
     assert np.array_equal(views[0], first) and np.array_equal(views[-1][:len(first)], first)
     ring = grid.hits() - [9.0, 9.0]
     assert 266 <= len(ring) <= 360 and np.allclose(np.hypot(ring[:, 0], ring[:, 1]), 3.0, atol=1e-9)
+
+
+def _traced_rays(grid):
+    """A list that gathers how many rays each trace of ``grid`` casts from now on."""
+    rays, trace = [], grid._trace
+    grid._trace = lambda origin, ends, *rest: rays.append(len(ends)) or trace(origin, ends, *rest)
+    return rays
+
+
+def _assert_same_grid(grid, fresh):
+    assert (grid.frame.ix0, grid.frame.iy0, grid.frame.shape) == (
+        fresh.frame.ix0, fresh.frame.iy0, fresh.frame.shape)
+    np.testing.assert_array_equal(grid.logodds, fresh.logodds)
+    np.testing.assert_array_equal(grid.hits(), fresh.hits())
+
+
+def test_grid_regeneration_retraces_what_moved_and_gives_the_grid_rebuilt_from_scratch(room):
+    poses = room_tour()
+    scans = scans_at(room, poses, seed=4)
+    error = gtsam.Pose2(0.35, -0.25, 0.06)
+    wrong = poses[:5] + [error.compose(p) for p in poses[5:9]] + poses[9:]
+    fresh = LogOddsGrid()
+    for p, s in zip(poses, scans):
+        fresh.update(p, s)
+    grid = LogOddsGrid()
+    for p, s in zip(wrong[:-3], scans[:-3]):          # keyframes 5-8 off, the last 3 not traced
+        grid.update(p, s)
+    grid.regenerate(zip(poses, scans))
+    _assert_same_grid(grid, fresh)
+    rays = _traced_rays(grid)
+    grid.regenerate(zip(poses, scans))                # nothing moved: nothing retraced
+    assert rays == []
+    _assert_same_grid(grid, fresh)
+
+
+def test_grid_regeneration_leaves_the_tiles_only_unmoved_keyframes_reach(corridor):
+    poses = [gtsam.Pose2(x, 2.0, 0.0) for x in np.arange(1.5, 12.6, 0.5)]
+    scans = scans_at(corridor, poses, seed=5)
+    wrong = poses[:-3] + [gtsam.Pose2(0.3, 0.1, 0.05).compose(p) for p in poses[-3:]]
+    fresh = LogOddsGrid()
+    for p, s in zip(poses, scans):
+        fresh.update(p, s)
+    grid = LogOddsGrid()
+    for p, s in zip(wrong, scans):
+        grid.update(p, s)
+    rays = _traced_rays(grid)
+    grid.regenerate(zip(poses, scans))
+    _assert_same_grid(grid, fresh)
+    # the last keyframes (x >= 11.5 m) reach back 10 m: the first ones' tiles at x < 1.5 m stand
+    assert 3 * len(scans[0]) <= sum(rays) < len(poses) * len(scans[0])
+
+
+def test_grid_regeneration_keeps_keyframes_whose_rays_moved_less_than_the_tolerance(room):
+    poses = room_tour()[:8]
+    scans = scans_at(room, poses, seed=6)
+    grid = LogOddsGrid(LogOddsConfig(unmoved=0.01))
+    for p, s in zip(poses, scans):
+        grid.update(p, s)
+    before = grid.logodds.copy()
+    rays = _traced_rays(grid)
+    grid.regenerate((gtsam.Pose2(0.004, 0.0, 0.0).compose(p), s) for p, s in zip(poses, scans))
+    assert rays == [] and np.array_equal(grid.logodds, before)
+    grid.regenerate((gtsam.Pose2(0.012, 0.0, 0.0).compose(p), s) for p, s in zip(poses, scans))
+    assert len(rays) >= len(poses) and not np.array_equal(grid.logodds, before)
 
 
 @pytest.mark.parametrize("protocol", ["points", "beams"])
