@@ -118,16 +118,14 @@ class ContinuousOccupancyMap:
         """Fuse one keyframe given as labelled points (hits, free) in the world frame, taken at
         sensor ``pose`` when known (a regeneration then relearns it only if it moved)."""
         kf = self._keyframe(samples, pose)
-        kf.pool = self._pool(kf.origin, self._fused_keyframes)             # line 10
+        kf.pool = self._pool(kf.origin, self._origins[:self.keyframes])     # line 10
+        if not kf.empty:
+            cells, blocks, start = self._query_set(kf)                        # line 9
+            self._grow(cells)               # may reject a wild pose: nothing is stored then
+            kf.blocks, kf.bounds = cell_key(blocks), (cells.min(0), cells.max(0))
+        self._keep(kf)
         if kf.empty:
-            self._fused_keyframes.append(kf)
-            self.keyframes += 1
             return 0.0
-        cells, blocks, start = self._query_set(kf)                            # line 9
-        self._grow(cells)                   # may reject a wild pose: nothing is stored then
-        kf.blocks, kf.bounds = cell_key(blocks), (cells.min(0), cells.max(0))
-        self._fused_keyframes.append(kf)
-        self.keyframes += 1
         flat = self.frame.flat(cells)
         before = self.prob_at(flat)
         local = self._add(kf, cells, blocks, start)
@@ -168,8 +166,9 @@ class ContinuousOccupancyMap:
             fused.append(self._keyframe(beam_samples(pose, scan, self.config.training), pose))
             dirty[k] = True
         moved_ = dirty.copy()
+        origins = np.array([kf.origin for kf in fused]).reshape(-1, 2)
         for k, kf in enumerate(fused):
-            kf.pool = self._pool(kf.origin, fused[:k])
+            kf.pool = self._pool(kf.origin, origins[:k])
             if k < len(old) and not dirty[k]:
                 dirty[k] = moved_[kf.pool].any() or not np.array_equal(kf.pool, old[k].pool)
         queries = {}
@@ -189,7 +188,10 @@ class ContinuousOccupancyMap:
         for acc in (self._occ, self._free):
             acc.precision = np.where(blocks_cleared, 0.0, reframed(acc.precision, self.frame, frame))
             acc.weighted = np.where(blocks_cleared, 0.0, reframed(acc.weighted, self.frame, frame))
-        self.frame, self._fused_keyframes, self.keyframes = frame, fused, len(fused)
+        self.frame, self._fused_keyframes, self._origins = frame, [], np.zeros((0, 2))
+        self.keyframes = 0
+        for kf in fused:
+            self._keep(kf)
         for k, kf in enumerate(fused):
             if kf.empty or not touches(kf.blocks, cleared).any():
                 continue
@@ -205,7 +207,16 @@ class ContinuousOccupancyMap:
         self._occ = BCMAccumulator((0, 0))
         self._free = BCMAccumulator((0, 0))
         self._fused_keyframes: list[_Fused] = []
+        self._origins = np.zeros((0, 2))     # theirs, in a buffer that doubles when full
         self.keyframes = 0
+
+    def _keep(self, kf: _Fused) -> None:
+        """Append a fused keyframe, and its origin to ``_origins``."""
+        if self.keyframes == len(self._origins):
+            self._origins = np.concatenate([self._origins, np.empty((max(64, self.keyframes), 2))])
+        self._origins[self.keyframes] = kf.origin
+        self._fused_keyframes.append(kf)
+        self.keyframes += 1
 
     # ---------------------------------------------------------------- map products
     @property
@@ -312,13 +323,14 @@ class ContinuousOccupancyMap:
         return _Fused(None if pose is None else pose_array(pose), np.asarray(samples.origin, float),
                       hits, free)
 
-    def _pool(self, origin: np.ndarray, previous: list[_Fused]) -> np.ndarray:
-        """Indices of the ``history`` keyframes of ``previous`` nearest to the sensor at
-        ``origin`` (within the query window), whose points join its training pool."""
+    def _pool(self, origin: np.ndarray, previous: np.ndarray) -> np.ndarray:
+        """Indices of the ``history`` earlier keyframes, at ``previous`` (k, 2) origins, nearest
+        to the sensor at ``origin`` (within the query window), whose points join its training
+        pool."""
         q = self.config.query
-        if q.history == 0 or not previous:
+        if q.history == 0 or not len(previous):
             return np.zeros(0, int)
-        d = np.hypot(*(np.array([kf.origin for kf in previous]) - origin).T)
+        d = np.hypot(*(previous - origin).T)
         near = np.flatnonzero(d < q.window / 2)
         return near[np.argsort(d[near], kind="stable")[:q.history]]
 
