@@ -133,12 +133,17 @@ def best_cell_near(dist: np.ndarray, cell, radius: int, blocked: np.ndarray | No
     candidates = candidates[inside]
     d = dist[candidates[:, 1], candidates[:, 0]]
     if blocked is not None:
-        for k in np.argsort(d, kind="stable"):
-            if not np.isfinite(d[k]):
-                break
-            if sees(blocked, candidates[k], cell):
-                return candidates[k]
+        order = np.argsort(d, kind="stable")
+        order = order[np.isfinite(d[order])]
+        for part in np.array_split(order, np.arange(_SIGHTS, len(order), _SIGHTS)):
+            seen = seen_from(blocked, candidates[part], cell)
+            if seen.any():
+                return candidates[part[np.argmax(seen)]]
     return candidates[np.argmin(d)]
+
+
+#: ``best_cell_near`` checks the sight lines of this many candidates at a time, nearest first.
+_SIGHTS = 64
 
 
 def nearest_reachable_cell(dist: np.ndarray, cell, radius: int) -> np.ndarray | None:
@@ -190,8 +195,19 @@ class Approach:
 
 def sees(blocked: np.ndarray, a, b) -> bool:
     """No ``blocked`` cell between cells ``a`` and ``b`` (ix, iy), sampled every half cell."""
-    n = max(2, int(2 * math.hypot(b[0] - a[0], b[1] - a[1])) + 1)
-    t = np.linspace(0.0, 1.0, n)
-    ix = np.round(a[0] + t * (b[0] - a[0])).astype(int)
-    iy = np.round(a[1] + t * (b[1] - a[1])).astype(int)
-    return not blocked[iy, ix].any()
+    return bool(seen_from(blocked, np.asarray(a)[None], b)[0])
+
+
+def seen_from(blocked: np.ndarray, starts: np.ndarray, b) -> np.ndarray:
+    """(k,) bool: ``sees(blocked, a, b)`` for each cell ``a`` of ``starts`` (k, 2), at once: the
+    segment to ``b`` sampled at ``n`` points ``i / (n - 1)`` of the way, its end exactly."""
+    starts = np.asarray(starts).reshape(-1, 2)
+    d = np.asarray(b) - starts
+    n = np.maximum(2, (2 * np.hypot(d[:, 0], d[:, 1])).astype(int) + 1)
+    segment = np.repeat(np.arange(len(starts)), n)
+    i = np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)
+    t = i * np.repeat(1.0 / (n - 1), n)
+    t[np.cumsum(n) - 1] = 1.0
+    ix = np.round(starts[segment, 0] + t * d[segment, 0]).astype(int)
+    iy = np.round(starts[segment, 1] + t * d[segment, 1]).astype(int)
+    return ~np.logical_or.reduceat(blocked[iy, ix], np.cumsum(n) - n)

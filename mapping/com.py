@@ -24,7 +24,7 @@ from mapping.grid import GridFrame, cell_key
 from mapping.kernels import Kernel
 from mapping.localgp import predict_blocks
 from mapping.occupancy import MapSnapshot
-from mapping.regeneration import moved, pose_array, reframed, replayed_frame, tile_mask, touches
+from mapping.regeneration import moved, reframed, replayed_frame, tile_mask, touches
 from mapping.squash import squash
 from mapping.training import BeamSamples, beam_samples, voxel_thin
 from slam.scan import LaserScan
@@ -38,12 +38,12 @@ VAR_FLOOR = 1e-6
 
 @dataclass
 class _Fused:
-    """A keyframe as fused: the sensor pose it was fused at ((3,); None when given as points),
+    """A keyframe as fused: the sensor pose it was fused at (None when given as points),
     its thinned points in the world frame, the earlier keyframes whose points joined its
     training pool, and the blocks (``cell_key``s) and global cell bounds (lo, hi) of its query
     set (none when it has no points)."""
 
-    pose: np.ndarray | None
+    pose: gtsam.Pose2 | None
     origin: np.ndarray
     hits: np.ndarray
     free: np.ndarray
@@ -320,7 +320,7 @@ class ContinuousOccupancyMap:
         free = samples.free[voxel_thin(samples.free, t.free_voxel)]
         if not self.obstacle_.fitted and min(len(hits), len(free)) >= MIN_FIT_POINTS:
             self._fit(hits, free)                                             # line 5
-        return _Fused(None if pose is None else pose_array(pose), np.asarray(samples.origin, float),
+        return _Fused(pose, np.asarray(samples.origin, float),
                       hits, free)
 
     def _pool(self, origin: np.ndarray, previous: np.ndarray) -> np.ndarray:

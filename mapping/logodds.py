@@ -11,7 +11,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from mapping.grid import GridFrame, cell_key, key_cells
 from mapping.occupancy import MapSnapshot
-from mapping.regeneration import moved, pose_array, reframed, replayed_frame, tile_keys, tile_mask, touches
+from mapping.regeneration import moved, reframed, replayed_frame, tile_keys, tile_mask, touches
 from mapping.training import voxel_thin
 from slam.scan import LaserScan
 
@@ -39,11 +39,11 @@ TILE = 16
 
 @dataclass
 class _Traced:
-    """An update as traced: the sensor pose of its whole scan ((3,); None: rays given, or
+    """An update as traced: the sensor pose of its whole scan (None: rays given, or
     beams left out), the length of its longest ray, the global cell bounds (lo, hi) and
     tiles (``cell_key``s) its rays reach (none when it has no rays), and its marked hits."""
 
-    pose: np.ndarray | None
+    pose: gtsam.Pose2 | None
     reach: float
     bounds: tuple[np.ndarray, np.ndarray] | None = None
     tiles: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
@@ -117,7 +117,7 @@ class LogOddsGrid:
         freed), and the update's record. Vectorised: each ray is sampled every half cell."""
         c = self.config
         reach = float(np.hypot(*(ends - origin).T).max()) if len(ends) else 0.0
-        traced = _Traced(None if pose is None else pose_array(pose), reach)
+        traced = _Traced(pose, reach)
         if len(ends) == 0:
             return traced, np.zeros(0, np.int64), np.zeros(0, np.int64)
         step = 0.5 * c.resolution
@@ -186,7 +186,7 @@ class LogOddsGrid:
             if record.bounds is None or not touches(record.tiles, cleared).any():
                 continue
             free, hit = cells[k] if k in cells else self._trace(
-                *self._rays(gtsam.Pose2(*record.pose), keyframes[k][1]), None)[1:]
+                *self._rays(record.pose, keyframes[k][1]), None)[1:]
             self._add(free[touches(_tiles_of(free), cleared)], hit[touches(_tiles_of(hit), cleared)])
         self._hits, self._count = np.zeros((0, 2)), 0
         self._append_hits(np.concatenate([np.zeros((0, 2))] + [t.hits for t in traced]))

@@ -20,22 +20,17 @@ import numpy as np
 from mapping.grid import GridFrame, cell_key, key_cells
 
 
-def pose_array(pose: gtsam.Pose2) -> np.ndarray:
-    """(3,) x, y (m), θ (rad) of ``pose``."""
-    return np.array([pose.x(), pose.y(), pose.theta()])
-
-
-def moved(before: np.ndarray | None, pose: gtsam.Pose2, reach: float, tolerance: float) -> bool:
-    """Did a keyframe fused at ``before`` (3,) (None: at no known pose) move at ``pose`` so
-    that one of its points, up to ``reach`` meters from the sensor, moved by ``tolerance``
-    meters or more? With ``tolerance`` 0, any change of the pose counts."""
+def moved(before: gtsam.Pose2 | None, pose: gtsam.Pose2, reach: float, tolerance: float) -> bool:
+    """Did a keyframe fused at ``before`` (None: at no known pose) move at ``pose`` so that one
+    of its points, up to ``reach`` meters from the sensor, moved by ``tolerance`` meters or
+    more? With ``tolerance`` 0, any change of the pose counts."""
     if before is None:
         return True
-    now = pose_array(pose)
+    was, now = (np.array([p.x(), p.y(), p.theta()]) for p in (before, pose))
     if tolerance == 0:
-        return not np.array_equal(before, now)
-    turn = abs((now[2] - before[2] + np.pi) % (2 * np.pi) - np.pi)
-    return float(np.hypot(*(now[:2] - before[:2]))) + turn * reach >= tolerance
+        return not np.array_equal(was, now)
+    turn = abs((now[2] - was[2] + np.pi) % (2 * np.pi) - np.pi)
+    return float(np.hypot(*(now[:2] - was[:2]))) + turn * reach >= tolerance
 
 
 def tile_keys(cells: np.ndarray, tile: int) -> np.ndarray:
