@@ -149,7 +149,8 @@ class ContinuousOccupancyMap:
         (moved, or whose training pool moved or changed) cover, at their old and new poses, are
         cleared and relearnt from every keyframe whose query set covers them, in order; the
         other blocks' sums stand. The map is the one relearning from scratch gives, bit for
-        bit, with each unmoved keyframe at the pose it was fused at.
+        bit, with each unmoved keyframe at the pose it was fused at. The relearnt keyframes add
+        no divergence to ``drift``: its baseline stays that of the online updates.
         """
         keyframes = list(keyframes)
         old = self._fused_keyframes
