@@ -3,7 +3,7 @@ map grid their evidence reached before and after.
 
 A map fuses keyframes one after another into sums per cell, and each keyframe touches only a
 window round its sensor. After a loop closure most of a long run's keyframes keep their place,
-so relearning every one of them (office_g: 3 000 keyframes, 10 s a regeneration) mostly
+so relearning every one of them (office_g: 3 000 keyframes, 15-20 s a regeneration) mostly
 recomputes what is already there. A map that keeps, for each keyframe, the pose it was fused
 at and the tiles its evidence touched can instead clear the tiles the moved keyframes touch,
 at their old and their new poses, and fuse into those tiles alone, in the original order,
