@@ -256,16 +256,81 @@ def clearest_points(points: np.ndarray, origin, resolution: float, shape: tuple[
 
     The points are sorted by the grid's cell holding them (``_Sorted``); a cell's search reads
     only those within its centre's clearance plus a cell's diagonal of its centre, which hold
-    the nearest point to every point of the cell."""
+    the nearest point to every point of the cell. So its answer stands while no point is added
+    within that reach: a cell searched by a recent call on the same grid, whose points begin
+    the new ones, is searched again only if one of the new points falls there (``_Found``)."""
     cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
     # buckets that can hold a point within bound + a diagonal of a cell's centre, either side
     pad = int(math.ceil((bound + math.sqrt(2.0) * resolution) / resolution)) + 1
-    keys, sorted_points = _SORTED.by_bucket(np.asarray(points, dtype=float).reshape(-1, 2), origin,
-                                            resolution, shape, pad)
-    shift, clearance = np.zeros((len(cells), 2)), np.full(len(cells), np.inf)
-    _pattern_search(sorted_points, keys, shape[1] + 2 * pad, pad, float(origin[0]), float(origin[1]),
-                    float(resolution), cells, float(bound), levels, shift, clearance)
-    return shift, clearance
+    found = _FOUND.for_points(points, origin, resolution, shape, bound, levels)
+    todo = cells[found.reach[cells[:, 1], cells[:, 0]] < 0]
+    if len(todo):
+        keys, sorted_points = _SORTED.by_bucket(points, origin, resolution, shape, pad)
+        shift, clearance, reach = np.zeros((len(todo), 2)), np.full(len(todo), np.inf), np.zeros(len(todo))
+        _pattern_search(sorted_points, keys, shape[1] + 2 * pad, pad, float(origin[0]), float(origin[1]),
+                        float(resolution), todo, float(bound), levels, shift, clearance, reach)
+        found.shift[todo[:, 1], todo[:, 0]] = shift
+        found.clearance[todo[:, 1], todo[:, 0]] = clearance
+        found.reach[todo[:, 1], todo[:, 0]] = reach
+    return found.shift[cells[:, 1], cells[:, 0]], found.clearance[cells[:, 1], cells[:, 0]]
+
+
+class _Found:
+    """The answers of ``clearest_points`` on one grid, per cell: the shift, the clearance and
+    the reach its search read points within (< 0: not searched, or a point came within it
+    since), for the points ``done``."""
+
+    def __init__(self, shape: tuple[int, int]):
+        self.done = np.zeros((0, 2))
+        self.shift = np.zeros(tuple(shape) + (2,))
+        self.clearance = np.full(shape, np.inf)
+        self.reach = np.full(shape, -1.0)
+
+
+class _Founds:
+    """The last few grids' ``_Found``, one per grid, bound and levels of search. Points that
+    begin with a grid's ``done`` points add to them: the answers of the cells within the reach
+    of one of the new points are forgotten, the others stand (exact: a search reads only the
+    points within its reach). Other points forget every answer (after a map's rebuild)."""
+
+    def __init__(self, size: int = 4):
+        self.size = size
+        self.found: dict[tuple, _Found] = {}
+
+    def for_points(self, points: np.ndarray, origin, resolution: float, shape: tuple[int, int],
+                   bound: float, levels: int) -> _Found:
+        key = (float(origin[0]), float(origin[1]), float(resolution), tuple(shape), float(bound), levels)
+        found = self.found.pop(key, None)
+        if found is None or not extends(points, found.done):
+            found = _Found(shape)
+        new = np.ascontiguousarray(points[len(found.done):])
+        if len(new) and len(found.done):
+            _forget(new, float(origin[0]), float(origin[1]), float(resolution),
+                    bound + math.sqrt(2.0) * resolution, found.reach)
+        found.done = kept(points)
+        _keep(self.found, key, found, self.size)
+        return found
+
+
+_FOUND = _Founds()
+
+
+@numba.njit(cache=True)
+def _forget(points, x0, y0, resolution, most, reach):
+    """Mark unsearched (-1) each cell of ``reach`` (h, w) that one of ``points`` lies within
+    the reach of (which is at most ``most`` meters), or a nanometre past it."""
+    h, w = reach.shape
+    cells = int(math.ceil(most / resolution))
+    for k in range(points.shape[0]):
+        px, py = points[k, 0], points[k, 1]
+        cx, cy = int(round((px - x0) / resolution)), int(round((py - y0) / resolution))
+        for iy in range(max(0, cy - cells), min(h, cy + cells + 1)):
+            dy = y0 + resolution * iy - py
+            for ix in range(max(0, cx - cells), min(w, cx + cells + 1)):
+                dx = x0 + resolution * ix - px
+                if reach[iy, ix] >= 0 and math.sqrt(dx * dx + dy * dy) <= reach[iy, ix] + 1e-9:
+                    reach[iy, ix] = -1.0
 
 
 class _Sorted:
@@ -304,7 +369,7 @@ _SORTED = _Sorted()
 
 @numba.njit(cache=True)
 def _pattern_search(points, keys, w, pad, x0, y0, resolution, cells, bound, levels, shift,
-                    clearance):
+                    clearance, reach):
     diagonal = math.sqrt(2.0) * resolution
     half = resolution / 2
     for i in range(cells.shape[0]):
@@ -323,6 +388,7 @@ def _pattern_search(points, keys, w, pad, x0, y0, resolution, cells, bound, leve
                                                          + (points[k, 1] - cy) ** 2))
         # the nearest point to any point of the cell lies within this of its centre
         radius = min(nearest, bound) + diagonal
+        reach[i] = radius
         around = min(pad, int(math.ceil(radius / resolution + 0.5)))
         rows = np.empty((2 * around + 1, 2), np.int64)    # each row's run of points
         count = 0

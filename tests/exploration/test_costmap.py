@@ -7,6 +7,7 @@ from pydantic import ValidationError
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
+from exploration import costmap
 from exploration.costmap import (CostmapConfig, _within, classify, clearest_points, distance_to_points,
                                   driven, passable)
 from exploration.explorer import Explorer, ExplorerConfig
@@ -240,6 +241,30 @@ def test_clearest_points_of_hits_that_grow_then_move_are_the_optimum_over_them(g
         shift, clearance = clearest_points(hits, origin, res, shape, cells, bound)
         assert_clearest(hits, origin, res, bound, cells, shift, clearance)
         assert np.isfinite(clearance).any() and np.isinf(clearance).any()
+
+
+def test_clearest_points_search_again_only_the_cells_new_hits_fall_within_reach_of(monkeypatch):
+    """Hits that grow at one end of a passage: the cells near them are searched again, the
+    others keep their answers, and every answer is the one a search from scratch gives, bit for
+    bit."""
+    rng = np.random.default_rng(8)
+    res, origin, bound, shape = 0.1, np.zeros(2), 0.6, (60, 40)
+    ys = rng.uniform(0.0, 6.0, 1200)
+    walls = np.vstack([np.column_stack([rng.normal(1.72, 0.01, 600), ys[:600]]),
+                       np.column_stack([rng.normal(2.28, 0.01, 600), ys[600:]])])
+    more = np.column_stack([rng.normal(1.8, 0.01, 50), rng.uniform(0.0, 0.5, 50)])
+    cells = np.array([(ix, iy) for ix in range(15, 26) for iy in range(0, 60)])
+    searched, search = [], costmap._pattern_search
+    monkeypatch.setattr(costmap, "_pattern_search", lambda *a: searched.append(len(a[7])) or search(*a))
+    monkeypatch.setattr(costmap, "_FOUND", costmap._Founds())
+    hits = np.vstack([walls, more])
+    clearest_points(hits[:len(walls)], origin, res, shape, cells, bound)
+    shift, clearance = clearest_points(hits, origin, res, shape, cells, bound)
+    assert searched[0] == len(cells) and 0 < searched[1] < len(cells) / 4
+    monkeypatch.setattr(costmap, "_FOUND", costmap._Founds())
+    fresh = clearest_points(hits, origin, res, shape, cells, bound)
+    np.testing.assert_array_equal(shift, fresh[0])
+    np.testing.assert_array_equal(clearance, fresh[1])
 
 
 @pytest.mark.parametrize("resolution, distance", [(0.1, 0.0), (0.1, 0.1), (0.1, 0.25), (0.05, 0.3)])
