@@ -267,31 +267,36 @@ class MissedByF(GridFrontier):
     def _seen_through(self, snapshot: MapSnapshot) -> Callable[[np.ndarray], bool]:
         """Is a region (k, 2) of cells the edge of a wedge of beams seen through a gap
         (``seen_through_a_gap``, a door's longest width at most), beside unknown space that
-        reaches the map's edge? What it reads (the hits' tree, the grid's labels) is built at
-        the first region asked about: a goal this check gave is kept on its regions at every
-        replan, and most of them pass on the COM's word."""
+        reaches the map's edge? What it reads (the grid's labels) is built at the first region
+        asked about: a goal this check gave is kept on its regions at every replan, and most of
+        them pass on the COM's word. The hits it reads are those within a door's width of the
+        region's box, in a tree of their own: a tree of all office_g's 770 000 hits took 0.1 s,
+        7 % of its GP run's time."""
         origin, resolution = np.asarray(snapshot.origin, float), snapshot.resolution
         if snapshot.hits is None or not len(snapshot.hits):
             return lambda region: False
         door = self.config.min_frontier_cells * resolution
 
         @functools.cache
-        def read() -> tuple[cKDTree, np.ndarray, np.ndarray]:
+        def read() -> tuple[np.ndarray, np.ndarray]:
             free, occupied = classify(evidence(snapshot), self.costmap)
-            return cKDTree(snapshot.hits), beside_the_open_unknown(free, occupied), free
+            return beside_the_open_unknown(free, occupied), free
 
         def free_near(centre: np.ndarray, radius: float) -> np.ndarray:
             low = np.maximum(np.floor((centre - radius - origin) / resolution).astype(int), 0)
             high = np.maximum(np.ceil((centre + radius - origin) / resolution).astype(int) + 1, 0)
-            iy, ix = np.nonzero(read()[2][low[1]:high[1], low[0]:high[0]])
+            iy, ix = np.nonzero(read()[1][low[1]:high[1], low[0]:high[0]])
             cells = origin + resolution * (np.column_stack([ix, iy]) + low)
             return cells[np.linalg.norm(cells - centre, axis=1) <= radius]
 
         def through(region: np.ndarray) -> bool:
-            hits, open_unknown, _ = read()
-            return bool(open_unknown[region[:, 1], region[:, 0]].any()) and seen_through_a_gap(
-                origin + resolution * region, hits, door, self.config.robot_radius,
-                math.sqrt(2) * resolution, free_near)
+            if not read()[0][region[:, 1], region[:, 0]].any():
+                return False
+            points = origin + resolution * region
+            low, high = points.min(axis=0) - door, points.max(axis=0) + door
+            hits = snapshot.hits[np.all((snapshot.hits >= low) & (snapshot.hits <= high), axis=1)]
+            return seen_through_a_gap(points, cKDTree(hits), door, self.config.robot_radius,
+                                      math.sqrt(2) * resolution, free_near)
 
         return through
 

@@ -91,7 +91,7 @@ def seen_through_a_gap(points: np.ndarray, hits: cKDTree, door: float, side: flo
     along = (points - points.mean(axis=0)) @ axis
     ends = points[np.argmin(along)], points[np.argmax(along)]
     for end, other in (ends, ends[::-1]):
-        near = hits.data[hits.query_ball_point(end, door)]
+        near = hits.data[hits.query_ball_point(end, door, return_sorted=True)]
         if len(near) < 2:
             continue
         away = near - end
