@@ -3,7 +3,7 @@ import math
 import numpy as np
 import pytest
 
-from exploration.paths import best_cell_near, distance_field, near_distance, path_to
+from exploration.paths import best_cell_near, distance_field, near_distance, path_to, seen_from
 
 
 def test_open_grid_distances_are_octile():
@@ -99,3 +99,19 @@ def test_a_field_until_a_cell_gives_that_cell_its_whole_field_length_and_path():
     iy, ix = np.unravel_index(np.argmin(np.where(dist > 0, dist, np.inf)), dist.shape)   # a neighbour
     near, _ = distance_field(passable, (5, 5), 0.1, cost, until=(ix, iy))
     assert np.count_nonzero(np.isfinite(near)) <= 9 * 9 < len(reached) // 10      # cells popped first, and theirs
+
+
+def test_sight_lines_at_once_are_the_segments_sampled_every_half_cell():
+    """``seen_from`` against each segment sampled on its own: ``n`` points evenly from start
+    to end (``np.linspace``), n = 2·length + 1 (at least 2), each rounded to its cell."""
+    rng = np.random.default_rng(9)
+    for _ in range(50):
+        blocked = rng.random((40, 50)) < rng.uniform(0.0, 0.15)
+        b = rng.integers(0, [50, 40])
+        starts = rng.integers(0, [50, 40], size=(60, 2))
+        expected = []
+        for a in starts:
+            t = np.linspace(0.0, 1.0, max(2, int(2 * math.hypot(*(b - a))) + 1))
+            cells = np.round(a + t[:, None] * (b - a)).astype(int)
+            expected.append(not blocked[cells[:, 1], cells[:, 0]].any())
+        np.testing.assert_array_equal(seen_from(blocked, starts, b), expected)
