@@ -50,6 +50,10 @@ class _Traced:
     hits: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
 
 
+#: A tile and the eight beside it, as offsets.
+_AROUND = np.array([(dx, dy) for dy in (-1, 0, 1) for dx in (-1, 0, 1)])
+
+
 def _tiles_of(keys: np.ndarray) -> np.ndarray:
     """(k,) the ``TILE`` tiles' keys of cells given by (k,) ``cell_key``s."""
     return cell_key(np.floor_divide(key_cells(keys), TILE))
@@ -182,14 +186,33 @@ class LogOddsGrid:
         self.logodds = np.where(tile_mask(frame, cleared, TILE), 0.0,
                                 reframed(self.logodds, self.frame, frame))
         self.frame, self._traced = frame, traced
+        beside = np.unique(cell_key((key_cells(cleared)[:, None, :] + _AROUND).reshape(-1, 2)))
         for k, record in enumerate(traced):
             if record.bounds is None or not touches(record.tiles, cleared).any():
                 continue
-            free, hit = cells[k] if k in cells else self._trace(
-                *self._rays(record.pose, keyframes[k][1]), None)[1:]
+            if k in cells:
+                free, hit = cells[k]
+            else:
+                origin, ends, is_hit = self._rays(record.pose, keyframes[k][1])
+                crossing = self._crossing(origin, ends, beside)
+                free, hit = self._trace(origin, ends[crossing], is_hit[crossing], None)[1:]
             self._add(free[touches(_tiles_of(free), cleared)], hit[touches(_tiles_of(hit), cleared)])
         self._hits, self._count = np.zeros((0, 2)), 0
         self._append_hits(np.concatenate([np.zeros((0, 2))] + [t.hits for t in traced]))
+
+    def _crossing(self, origin: np.ndarray, ends: np.ndarray, beside: np.ndarray) -> np.ndarray:
+        """(k,) bool: the rays from ``origin`` (2,) to ``ends`` (k, 2) that may cross one of
+        some ``TILE`` tiles, given as ``beside``, the sorted ``cell_key``s of those tiles and
+        the tiles beside them: the rays with a point in one of ``beside``, among points a
+        tile's side apart at most along the ray, and its end (every point of the ray lies
+        within half a side of one of those, so in its tile or one beside it). The others add
+        nothing to those tiles."""
+        side = TILE * self.config.resolution
+        count = np.maximum(np.ceil(np.hypot(*(ends - origin).T) / side).astype(int), 1) + 1
+        ray = np.repeat(np.arange(len(ends)), count)
+        t = (np.arange(ray.size) - np.repeat(np.cumsum(count) - count, count)) / np.repeat(count - 1, count)
+        at = np.floor_divide(self.frame.cells(origin + t[:, None] * (ends - origin)[ray]), TILE)
+        return np.bincount(ray[touches(cell_key(at), beside)], minlength=len(ends)) > 0
 
     @property
     def origin(self) -> np.ndarray:

@@ -6,7 +6,8 @@ import pytest
 
 from mapping.config import TrainingConfig
 from mapping.holdout import split
-from mapping.logodds import LogOddsConfig, LogOddsGrid
+from mapping.grid import cell_key, key_cells
+from mapping.logodds import _AROUND, TILE, LogOddsConfig, LogOddsGrid
 from mapping.training import beam_samples
 from slam.scan import LaserScan
 
@@ -142,3 +143,21 @@ def test_holdout_splits_each_scan_into_disjoint_train_and_test(protocol):
         assert not np.isin(part.train.hit_beam, np.flatnonzero(part.held_beams)).any()
     with pytest.raises(ValueError, match="protocol"):
         split(s, 180, 0.2, "cells", rng)
+
+
+def test_grid_regeneration_retraces_every_ray_that_crosses_a_cleared_tile():
+    """``_crossing`` keeps every ray one of whose points (sampled every millimetre) lies in a
+    cleared tile, from its samples a tile's side apart and the tiles beside the cleared ones."""
+    rng = np.random.default_rng(10)
+    grid = LogOddsGrid()
+    side = TILE * grid.config.resolution
+    cleared = np.unique(cell_key(rng.integers(-10, 10, size=(6, 2))))
+    beside = np.unique(cell_key((key_cells(cleared)[:, None, :] + _AROUND).reshape(-1, 2)))
+    origin = rng.uniform(-3 * side, 3 * side, 2)
+    ends = origin + rng.uniform(-10.0, 10.0, size=(2000, 2))
+    kept = grid._crossing(origin, ends, beside)
+    for end, keep in zip(ends, kept):
+        t = np.linspace(0.0, 1.0, int(np.hypot(*(end - origin)) / 0.001) + 2)
+        cells = np.floor((origin + t[:, None] * (end - origin)) / grid.config.resolution).astype(np.int64)
+        assert keep or not np.isin(cell_key(np.floor_divide(cells, TILE)), cleared).any()
+    assert 0 < kept.sum() < len(ends)
