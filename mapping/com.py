@@ -166,15 +166,15 @@ class ContinuousOccupancyMap:
                 continue
             fused.append(self._keyframe(beam_samples(pose, scan, self.config.training), pose))
             dirty[k] = True
-        moved_ = dirty.copy()
+        relocated = dirty.copy()
         origins = np.array([kf.origin for kf in fused]).reshape(-1, 2)
         for k, kf in enumerate(fused):
             kf.pool = self._pool(kf.origin, origins[:k])
             if k < len(old) and not dirty[k]:
-                dirty[k] = moved_[kf.pool].any() or not np.array_equal(kf.pool, old[k].pool)
+                dirty[k] = relocated[kf.pool].any() or not np.array_equal(kf.pool, old[k].pool)
         queries = {}
         for k in np.flatnonzero(dirty):
-            if moved_[k] and not fused[k].empty:
+            if relocated[k] and not fused[k].empty:
                 queries[k] = self._query_set(fused[k])
                 cells, blocks, _ = queries[k]
                 fused[k].blocks, fused[k].bounds = cell_key(blocks), (cells.min(0), cells.max(0))

@@ -11,7 +11,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from mapping.grid import GridFrame, cell_key, key_cells
 from mapping.occupancy import MapSnapshot
-from mapping.regeneration import moved, reframed, replayed_frame, tile_keys, tile_mask, touches
+from mapping.regeneration import moved, reframed, replayed_frame, tile_mask, tiles_of, touches
 from mapping.training import voxel_thin
 from slam.scan import LaserScan
 
@@ -52,11 +52,6 @@ class _Traced:
 
 #: A tile and the eight beside it, as offsets.
 _AROUND = np.array([(dx, dy) for dy in (-1, 0, 1) for dx in (-1, 0, 1)])
-
-
-def _tiles_of(keys: np.ndarray) -> np.ndarray:
-    """(k,) the ``TILE`` tiles' keys of cells given by (k,) ``cell_key``s."""
-    return cell_key(np.floor_divide(key_cells(keys), TILE))
 
 
 class LogOddsGrid:
@@ -140,7 +135,7 @@ class LogOddsGrid:
         traced.hits = marked[voxel_thin(marked, step)]
         hit = np.unique(cell_key(hit_cells))
         free = np.setdiff1d(np.unique(cell_key(free_cells)), hit, assume_unique=True)
-        traced.tiles = tile_keys(key_cells(np.concatenate([free, hit])), TILE)
+        traced.tiles = np.unique(tiles_of(np.concatenate([free, hit]), TILE))
         return traced, free, hit
 
     def _add(self, free: np.ndarray, hit: np.ndarray) -> None:
@@ -196,7 +191,7 @@ class LogOddsGrid:
                 origin, ends, is_hit = self._rays(record.pose, keyframes[k][1])
                 crossing = self._crossing(origin, ends, beside)
                 free, hit = self._trace(origin, ends[crossing], is_hit[crossing], None)[1:]
-            self._add(free[touches(_tiles_of(free), cleared)], hit[touches(_tiles_of(hit), cleared)])
+            self._add(free[touches(tiles_of(free, TILE), cleared)], hit[touches(tiles_of(hit, TILE), cleared)])
         self._hits, self._count = np.zeros((0, 2)), 0
         self._append_hits(np.concatenate([np.zeros((0, 2))] + [t.hits for t in traced]))
 

@@ -33,10 +33,10 @@ def moved(before: gtsam.Pose2 | None, pose: gtsam.Pose2, reach: float, tolerance
     return float(np.hypot(*(now[:2] - was[:2]))) + turn * reach >= tolerance
 
 
-def tile_keys(cells: np.ndarray, tile: int) -> np.ndarray:
-    """(k,) sorted unique ``cell_key``s of the ``tile`` x ``tile`` tiles holding global cells
-    ``cells`` (k, 2)."""
-    return np.unique(cell_key(np.floor_divide(np.asarray(cells, np.int64).reshape(-1, 2), tile)))
+def tiles_of(keys: np.ndarray, tile: int) -> np.ndarray:
+    """(k,) the ``cell_key``s of the ``tile`` x ``tile`` tiles holding the cells of (k,)
+    ``cell_key``s ``keys``."""
+    return cell_key(np.floor_divide(key_cells(keys), tile))
 
 
 def touches(keys: np.ndarray, dirty: np.ndarray) -> np.ndarray:

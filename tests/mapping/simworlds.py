@@ -29,6 +29,13 @@ def scans_at(world: World, poses: list[gtsam.Pose2], seed: int = 0):
     return [lidar.scan(world, p, float(i)) for i, p in enumerate(poses)]
 
 
+def corridor_pass() -> tuple[list[gtsam.Pose2], list[gtsam.Pose2]]:
+    """Sensor poses every 0.5 m down the corridor's middle, looking along it, and the same
+    with the last three off by (0.3 m, 0.1 m, 0.05 rad), as before a loop closure moves them."""
+    poses = [gtsam.Pose2(x, 2.0, 0.0) for x in np.arange(1.5, 12.6, 0.5)]
+    return poses, poses[:-3] + [gtsam.Pose2(0.3, 0.1, 0.05).compose(p) for p in poses[-3:]]
+
+
 def room_tour() -> list[gtsam.Pose2]:
     """16 sensor poses on a loop around the box, looking along the loop and outward."""
     poses = []

@@ -12,7 +12,7 @@ from mapping.training import beam_samples
 from sim.world_io import load_ros_map
 from slam.scan import LaserScan
 
-from simworlds import room_tour, scans_at
+from simworlds import corridor_pass, room_tour, scans_at
 
 
 def auc_vs_truth(com, world, margin=0.1):
@@ -134,9 +134,8 @@ def _assert_same_map(com, fresh):
 
 
 def test_regeneration_leaves_the_blocks_only_unmoved_keyframes_reach(corridor):
-    poses = [gtsam.Pose2(x, 2.0, 0.0) for x in np.arange(1.5, 12.6, 0.5)]
+    poses, wrong = corridor_pass()
     scans = scans_at(corridor, poses, seed=3)
-    wrong = poses[:-3] + [gtsam.Pose2(0.3, 0.1, 0.05).compose(p) for p in poses[-3:]]
     fresh = ContinuousOccupancyMap()
     everything = _predicted_cells(fresh)
     for p, s in zip(poses, scans):

@@ -11,7 +11,7 @@ from mapping.logodds import _AROUND, TILE, LogOddsConfig, LogOddsGrid
 from mapping.training import beam_samples
 from slam.scan import LaserScan
 
-from simworlds import room_tour, scans_at
+from simworlds import corridor_pass, room_tour, scans_at
 
 
 def test_grid_frees_the_cells_a_beam_crosses_and_occupies_its_hit_cell():
@@ -94,9 +94,8 @@ def test_grid_regeneration_retraces_what_moved_and_gives_the_grid_rebuilt_from_s
 
 
 def test_grid_regeneration_leaves_the_tiles_only_unmoved_keyframes_reach(corridor):
-    poses = [gtsam.Pose2(x, 2.0, 0.0) for x in np.arange(1.5, 12.6, 0.5)]
+    poses, wrong = corridor_pass()
     scans = scans_at(corridor, poses, seed=5)
-    wrong = poses[:-3] + [gtsam.Pose2(0.3, 0.1, 0.05).compose(p) for p in poses[-3:]]
     fresh = LogOddsGrid()
     for p, s in zip(poses, scans):
         fresh.update(p, s)
