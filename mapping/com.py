@@ -20,7 +20,7 @@ from mapping.config import COMConfig, KernelConfig
 from mapping.drift import DriftMonitor, js_divergence
 from mapping.fusion import BCMAccumulator, bcm_fuse
 from mapping.gp import GaussianProcess, fit_hyperparameters
-from mapping.grid import GridFrame, cell_key
+from mapping.grid import GridFrame, cell_key, key_cells, unique_keys
 from mapping.kernels import Kernel
 from mapping.localgp import predict_blocks
 from mapping.occupancy import MapSnapshot
@@ -370,11 +370,11 @@ class ContinuousOccupancyMap:
         oy, ox = np.mgrid[-r:r + 1, -r:r + 1]
         disk = (ox ** 2 + oy ** 2) * res * res <= q.near ** 2 + 1e-12
         offsets = np.column_stack([ox[disk], oy[disk]])
-        base = _unique_cells(self.frame.cells(pts))
+        base = key_cells(unique_keys(self.frame.cells(pts)))
         cells = (base[:, None, :] + offsets[None]).reshape(-1, 2)
         lo = np.floor((origin - q.window / 2) / res)
         hi = np.floor((origin + q.window / 2) / res)
-        cells = _unique_cells(cells[np.all((cells >= lo) & (cells <= hi), axis=1)])
+        cells = key_cells(unique_keys(cells[np.all((cells >= lo) & (cells <= hi), axis=1)]))
         block_of = np.floor_divide(cells, q.block)
         key = cell_key(block_of)
         order = np.argsort(key, kind="stable")
@@ -429,12 +429,6 @@ class ContinuousOccupancyMap:
         js = float(js_divergence(np.stack([before[both], local[both]])).mean())
         self.drift.add(js)
         return js
-
-
-def _unique_cells(cells: np.ndarray) -> np.ndarray:
-    """Unique rows of (k, 2) integer cells (fast: one 1-D unique on int64 keys)."""
-    _, first = np.unique(cell_key(cells), return_index=True)
-    return cells[first]
 
 
 def _blocks_of(start: np.ndarray, keep: np.ndarray) -> np.ndarray:

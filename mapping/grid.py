@@ -14,6 +14,24 @@ def cell_key(cells: np.ndarray) -> np.ndarray:
     return (cells[:, 1] << 32) + (cells[:, 0] + (1 << 31))
 
 
+def unique_keys(cells: np.ndarray) -> np.ndarray:
+    """(k, 2) integer cells -> the sorted ``cell_key``s of the distinct ones, ``np.unique``'s
+    answer. Cells in a box at most a few times their number are marked on a bitmap of the box
+    and read back row by row, in key order: no sort (a scan's ray samples, thousands per
+    ray, took a third of the log-odds grid's tracing to sort)."""
+    cells = np.asarray(cells, np.int64).reshape(-1, 2)
+    if not len(cells):
+        return np.zeros(0, np.int64)
+    lo, hi = cells.min(axis=0), cells.max(axis=0)
+    w, h = hi - lo + 1
+    if w * h > 8 * len(cells) + 4096:
+        return np.unique(cell_key(cells))
+    marked = np.zeros(h * w, bool)
+    marked[(cells[:, 1] - lo[1]) * w + (cells[:, 0] - lo[0])] = True
+    flat = np.flatnonzero(marked)
+    return cell_key(np.column_stack([flat % w, flat // w]) + lo)
+
+
 def key_cells(keys: np.ndarray) -> np.ndarray:
     """``cell_key``'s inverse: (k,) keys -> (k, 2) cells (cx, cy)."""
     keys = np.asarray(keys, np.int64)

@@ -9,7 +9,7 @@ import gtsam
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from mapping.grid import GridFrame, cell_key, key_cells
+from mapping.grid import GridFrame, cell_key, key_cells, unique_keys
 from mapping.occupancy import MapSnapshot
 from mapping.regeneration import moved, reframed, replayed_frame, tile_mask, tiles_of, touches
 from mapping.training import voxel_thin
@@ -133,9 +133,10 @@ class LogOddsGrid:
         traced.bounds = all_cells.min(0), all_cells.max(0)
         marked = ends[is_hit]
         traced.hits = marked[voxel_thin(marked, step)]
-        hit = np.unique(cell_key(hit_cells))
-        free = np.setdiff1d(np.unique(cell_key(free_cells)), hit, assume_unique=True)
-        traced.tiles = np.unique(tiles_of(np.concatenate([free, hit]), TILE))
+        hit = unique_keys(hit_cells)
+        free = unique_keys(free_cells)
+        free = free[~touches(free, hit)]
+        traced.tiles = unique_keys(np.floor_divide(np.vstack([free_cells, hit_cells]), TILE))
         return traced, free, hit
 
     def _add(self, free: np.ndarray, hit: np.ndarray) -> None:

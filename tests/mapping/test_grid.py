@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from mapping.grid import GridFrame
+from mapping.grid import GridFrame, key_cells, unique_keys
 
 
 def frame(resolution, ix0, iy0, shape):
@@ -33,3 +33,16 @@ def test_resampled_is_the_grid_read_at_the_other_frame_s_cell_centres(other):
             col = [c for c in range(grid.shape[1]) if (grid.ix0 + c) * 0.1 <= x < (grid.ix0 + c + 1) * 0.1]
             row = [r for r in range(grid.shape[0]) if (grid.iy0 + r) * 0.1 <= y < (grid.iy0 + r + 1) * 0.1]
             assert out[i, j] == (values[row[0], col[0]] if col and row else 0.5)
+
+
+@pytest.mark.parametrize("spread", [3, 40, 100000])   # dense boxes (the bitmap), a sparse one
+def test_unique_keys_are_the_distinct_cells_keys_in_order(spread):
+    """Against the distinct cells counted one by one in a set, ordered row by row (y, then x),
+    negative coordinates included."""
+    rng = np.random.default_rng(spread)
+    cells = rng.integers(-spread, spread, size=(500, 2)) + np.array([-2 ** 20, 7])
+    expected = sorted({(int(x), int(y)) for x, y in cells}, key=lambda c: (c[1], c[0]))
+    keys = unique_keys(cells)
+    assert [tuple(c) for c in key_cells(keys)] == expected
+    assert np.all(np.diff(keys) > 0)
+    assert unique_keys(np.zeros((0, 2), int)).shape == (0,)
