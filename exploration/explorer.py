@@ -153,7 +153,8 @@ class Explorer:
         reachable = self._reachable(snapshot, pose, costmap)
         frontier = self.method.frontier(snapshot)
         if self.goal is not None and not local:
-            source = frontier if self.source is self.method else self.source.keeping(snapshot)
+            source = (frontier if self.source is self.method
+                      else self.source.keeping(snapshot, self._targets(), self.config.goals.reach))
             if self._goal_still_valid(source.cells, reachable):
                 return Plan(self.goal, reachable.path(self.goal))
         plan = self._choose(snapshot, frontier, reachable)

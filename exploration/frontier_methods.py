@@ -167,9 +167,13 @@ class GridFrontier:
         """The smallest frontier region kept, cells."""
         return self.config.min_frontier_cells
 
-    def frontier(self, snapshot: MapSnapshot) -> Frontier:
+    def frontier(self, snapshot: MapSnapshot, near: tuple[np.ndarray, float] | None = None) -> Frontier:
+        """The frontier; with ``near`` (points (k, 2) m, reach m), only its regions with a cell
+        closer than reach to one of the points (a kept goal's, ``keeping``)."""
         regions = grid_frontiers(evidence(snapshot), self.costmap, self.min_cells(snapshot.resolution),
                                  self.surfaces(snapshot))
+        if near is not None:
+            regions = [r for r in regions if _reaches(snapshot, r, *near)]
         cells = np.vstack(regions) if regions else np.zeros((0, 2), int)
         values = np.zeros(snapshot.prob.shape)
         values[cells[:, 1], cells[:, 0]] = 1.0
@@ -181,9 +185,12 @@ class GridFrontier:
         """(h, w) bool, cells that are no frontier whatever the grid reads there; None: none."""
         return None
 
-    def keeping(self, snapshot: MapSnapshot) -> Frontier:
-        """The frontier a goal this found is kept by (``Explorer._goal_still_valid``)."""
-        return self.frontier(snapshot)
+    def keeping(self, snapshot: MapSnapshot, near: np.ndarray, reach: float) -> Frontier:
+        """The frontier a goal this found is kept by (``Explorer._goal_still_valid``, which
+        counts its cells closer than ``reach`` m to ``near`` (k, 2) m): its regions with such a
+        cell, the others not checked (on office_g the stop's checks of every region at each
+        replan took a twentieth of a GP run's time)."""
+        return self.frontier(snapshot, (near, reach))
 
     def clusters(self, frontier: Frontier, reachable: Reachable, blacklist: Blacklist,
                  rng: np.random.Generator) -> list[FrontierCluster]:
@@ -247,8 +254,8 @@ class MissedByF(GridFrontier):
     What the hits say tells the two apart: beams passed between two jambs to the wedge, and
     none passes through a block's face."""
 
-    def frontier(self, snapshot: MapSnapshot) -> Frontier:
-        found = super().frontier(snapshot)
+    def frontier(self, snapshot: MapSnapshot, near: tuple[np.ndarray, float] | None = None) -> Frontier:
+        found = super().frontier(snapshot, near)
         unknown = np.abs(evidence(snapshot) - 0.5) <= KNOWN
         not_free_on_com = snapshot.prob >= 0.5 - KNOWN
         through = self._seen_through(snapshot)
@@ -336,14 +343,15 @@ class DoorFrontier(GridFrontier):
     def min_cells(self, resolution: float) -> int:
         return max(1, math.floor(2 * self.config.robot_radius / resolution + 1e-9))
 
-    def frontier(self, snapshot: MapSnapshot, any_length: bool = False) -> Frontier:
-        """The door-sized regions; with ``any_length``, the longer ones too, to keep a goal by:
-        a door's region lengthens as the robot nears it and sees past (office_d: a 28 m² room
-        was left when its door's region grew from 8 cells as the robot came into the doorway)."""
-        found = super().frontier(snapshot)
+    def frontier(self, snapshot: MapSnapshot, near: tuple[np.ndarray, float] | None = None) -> Frontier:
+        """The door-sized regions; with ``near``, those of any length near a kept goal
+        (``keeping``): a door's region lengthens as the robot nears it and sees past
+        (office_d: a 28 m² room was left when its door's region grew from 8 cells as the robot
+        came into the doorway)."""
+        found = super().frontier(snapshot, near)
         beside = beside_the_open_unknown(*classify(evidence(snapshot), self.costmap))
         regions = tuple(r for r in found.regions
-                        if (any_length or len(r) < self.config.min_frontier_cells)
+                        if (near is not None or len(r) < self.config.min_frontier_cells)
                         and beside[r[:, 1], r[:, 0]].any())
         if snapshot.hits is not None and len(snapshot.hits) and regions:
             hits = cKDTree(snapshot.hits)
@@ -359,9 +367,6 @@ class DoorFrontier(GridFrontier):
                                                   seen.shape, self.config.robot_radius))
             seen = np.where(near, looked, seen)
         return dataclasses.replace(found, cells=cells, regions=regions, evidence=looked, seen=seen)
-
-    def keeping(self, snapshot: MapSnapshot) -> Frontier:
-        return self.frontier(snapshot, any_length=True)
 
     def surfaces(self, snapshot: MapSnapshot) -> np.ndarray | None:
         """(h, w) bool, the cells holding a hit (a beam ended there: a surface); None without
@@ -556,6 +561,13 @@ def spread(points: np.ndarray, first: np.ndarray, k: int) -> np.ndarray:
         taken.append(j)
         gap = np.minimum(gap, np.linalg.norm(points - points[j], axis=1))
     return points[taken]
+
+
+def _reaches(snapshot: MapSnapshot, region: np.ndarray, points: np.ndarray, reach: float) -> bool:
+    """Has the region (k, 2) of cells a cell (its centre) closer than ``reach`` m to one of
+    ``points`` (m, 2) m (or as close, to within a nanometre)?"""
+    centres = np.asarray(snapshot.origin, float) + snapshot.resolution * region
+    return bool(cKDTree(points).query(centres)[0].min() < reach + 1e-9)
 
 
 def beside_the_open_unknown(free: np.ndarray, occupied: np.ndarray) -> np.ndarray:

@@ -8,7 +8,7 @@ import pytest
 
 from exploration.costmap import passable
 from exploration.explorer import Explorer, ExplorerConfig
-from exploration.frontier_methods import CFrontier, MissedByF, look, within_reach
+from exploration.frontier_methods import CFrontier, DoorFrontier, MissedByF, look, within_reach
 from exploration.frontier import frontier_map
 from exploration.gain import visible_unknown_area
 from exploration.goals import GoalConfig, extract_goals
@@ -632,6 +632,24 @@ def missed_regions(snapshot):
     cells' centres (m)."""
     check = MissedByF(ExplorerConfig(method="gp"))
     return [snapshot.origin + snapshot.resolution * r for r in check.frontier(snapshot).regions]
+
+
+@pytest.mark.parametrize("check, rows", [(MissedByF, DOOR), (DoorFrontier, (36, 44))])
+def test_a_kept_goal_s_check_reads_the_regions_near_its_target_as_the_whole_map_does(check, rows):
+    """Doors of the same width in the left and the right wall (x 1.8 and 8.1 m), each a region
+    of the stop's check: kept on a target 0.4 m past the right one with a 1 m reach, the check
+    gives the right door's region, cell for cell as the whole map's check gives it, and not
+    the left's, 5.9 m away; with a 7 m reach, both."""
+    snapshot = with_wall_hits(room([("right", *rows, 0), ("left", *rows, 0)]))
+    config = ExplorerConfig(method="gp")
+    whole = check(config).frontier(snapshot)
+    right = [r for r in whole.regions if r[:, 0].min() >= 80]
+    assert len(whole.regions) == 2 and len(right) == 1
+    target = np.array([[8.5, 4.0]])
+    kept = check(config).keeping(snapshot, target, 1.0)
+    assert len(kept.regions) == 1 and np.array_equal(kept.regions[0], right[0])
+    assert np.array_equal(kept.cells, right[0])
+    assert len(check(config).keeping(snapshot, target, 7.0).regions) == 2
 
 
 def test_the_c_frontier_s_stop_checks_a_wedge_seen_through_a_door_where_the_com_reads_free():
