@@ -155,3 +155,29 @@ class GridFrame:
                 w = (f[..., 0] if dx else 1 - f[..., 0]) * (f[..., 1] if dy else 1 - f[..., 1])
                 out += w * self.sample(grid, c * self.resolution + 0.5 * self.resolution, outside)
         return out
+
+
+class FixedPoints:
+    """Points (k, 2) read on a growing grid again and again (an evaluator's true free space,
+    read every few steps): ``GridFrame.sample``'s answer, with each point's index in the
+    stored window found once per window, not at every read (on office_g, 1.1 million points
+    at 25-step intervals took a twentieth of a run's time)."""
+
+    def __init__(self, xy: np.ndarray):
+        self.xy = np.asarray(xy, float).reshape(-1, 2)
+        self._window: tuple | None = None
+        self._flat = np.zeros(0, np.int64)          # -1: off the window
+
+    def sample(self, frame: GridFrame, grid: np.ndarray, outside: float = 0.5) -> np.ndarray:
+        """(k,) the values of ``grid`` (``frame``'s stored window) at the points, ``outside``
+        off it."""
+        window = (frame.resolution, frame.ix0, frame.iy0, frame.shape)
+        if window != self._window:
+            cells = frame.cells(self.xy)
+            self._flat = np.where(frame.inside(cells), frame.flat(cells), -1)
+            self._window = window
+        values = np.asarray(grid, float).reshape(-1)
+        out = values[np.maximum(self._flat, 0)] if len(values) else np.empty(len(self.xy))
+        out[self._flat < 0] = outside
+        return out
+

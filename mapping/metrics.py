@@ -56,8 +56,13 @@ def map_entropy(frame, prob: np.ndarray, extent: tuple[float, float, float, floa
     """Map entropy in nats (the paper's metric): Σ H(p) over the cells of size ``cell`` (m)
     tiling ``extent`` (xmin, xmax, ymin, ymax), the map array ``prob`` (h, w) on ``frame`` (a
     ``GridFrame``) read at each cell's centre; cells off the map count ln 2."""
+    return float(binary_entropy(frame.sample(prob, entropy_cells(extent, cell))).sum())
+
+
+def entropy_cells(extent: tuple[float, float, float, float], cell: float = ENTROPY_CELL) -> np.ndarray:
+    """(k, 2) the centres of the cells of size ``cell`` (m) tiling ``extent`` (xmin, xmax,
+    ymin, ymax) that ``map_entropy`` reads the map at."""
     xmin, xmax, ymin, ymax = extent
     gx = np.arange(xmin + cell / 2, xmax, cell)
     gy = np.arange(ymin + cell / 2, ymax, cell)
-    xy = np.stack(np.meshgrid(gx, gy), axis=-1).reshape(-1, 2)
-    return float(binary_entropy(frame.sample(prob, xy)).sum())
+    return np.stack(np.meshgrid(gx, gy), axis=-1).reshape(-1, 2)

@@ -19,7 +19,9 @@ from tqdm import tqdm
 
 from exploration.explorer import Plan
 from exploration.stack import Stack, StackConfig, StackStep
-from mapping.metrics import KNOWN, coverage, map_entropy, roc_auc
+from mapping.drift import binary_entropy
+from mapping.grid import FixedPoints
+from mapping.metrics import KNOWN, coverage, entropy_cells, roc_auc
 from sim.animation import Frame, FrameRecorder
 from sim.lidar import Lidar, LidarConfig
 from sim.odometry import Odometry, OdometryNoise
@@ -134,12 +136,13 @@ class Evaluator:
     def __init__(self, world: World, start_xy, radius: float, margin: float = 0.0):
         self.reachable = world.reachable(start_xy, radius, margin)
         self.cells = np.nonzero(self.reachable)                       # (iy, ix)
-        self.free_xy = world.center_of(np.column_stack(self.cells[::-1]))
+        self.free = FixedPoints(world.center_of(np.column_stack(self.cells[::-1])))
+        self.entropy_at = FixedPoints(entropy_cells(world.extent))
         self.start = world.cell_of(np.asarray(start_xy, float))       # (ix, iy)
         self.world = world
 
     def coverage(self, stack: Stack, prob: np.ndarray) -> float:
-        return coverage(stack.map.frame.sample(prob, self.free_xy))
+        return coverage(self.free.sample(stack.map.frame, prob))
 
     def missed_regions(self, stack: Stack, prob: np.ndarray,
                        min_region_m2: float = MISSED_REGION_M2) -> list[dict]:
@@ -148,7 +151,7 @@ class Evaluator:
         missed room, not the scattered unknown cells of a seen one. Each is a dict: ``area_m2``,
         ``x``, ``y`` (its centroid, m) and ``door_m``, the narrowest gap on the widest way to it
         from the start (``door_to``), largest first."""
-        known = np.abs(stack.map.frame.sample(prob, self.free_xy) - 0.5) > KNOWN
+        known = np.abs(self.free.sample(stack.map.frame, prob) - 0.5) > KNOWN
         unknown = np.zeros_like(self.reachable)
         unknown[self.cells[0][~known], self.cells[1][~known]] = True
         labels, n = ndimage.label(unknown)
@@ -187,7 +190,7 @@ class Evaluator:
 
     def entropy(self, stack: Stack, prob: np.ndarray) -> float:
         """Nats over the world's extent on 0.2 m cells (unseen cells count ln 2)."""
-        return map_entropy(stack.map.frame, prob, self.world.extent)
+        return float(binary_entropy(self.entropy_at.sample(stack.map.frame, prob)).sum())
 
     def auc(self, stack: Stack, prob: np.ndarray) -> float:
         """ROC AUC of the map against the true occupancy, over the map's observed cells."""

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from mapping.grid import GridFrame, key_cells, unique_keys
+from mapping.grid import FixedPoints, GridFrame, key_cells, unique_keys
 
 
 def frame(resolution, ix0, iy0, shape):
@@ -46,3 +46,18 @@ def test_unique_keys_are_the_distinct_cells_keys_in_order(spread):
     assert [tuple(c) for c in key_cells(keys)] == expected
     assert np.all(np.diff(keys) > 0)
     assert unique_keys(np.zeros((0, 2), int)).shape == (0,)
+
+
+def test_fixed_points_read_what_sample_reads_as_the_grid_grows():
+    """Points inside, outside and on cell edges, read on an empty frame, then after it grew
+    twice (the window moves, so the kept indices must be found again): each read equals
+    ``GridFrame.sample`` at the same points, value for value."""
+    rng = np.random.default_rng(3)
+    xy = np.vstack([rng.uniform(-6, 6, size=(300, 2)), [[0.0, 0.0], [0.1, -0.2], [2.9, 2.9]]])
+    points, f = FixedPoints(xy), GridFrame(0.1)
+    assert np.all(points.sample(f, np.zeros(f.shape)) == 0.5)
+    for lo, hi in [((-5, -5), (5, 5)), ((-40, -8), (3, 30))]:
+        f.ensure(np.array(lo), np.array(hi))
+        grid = rng.random(f.shape)
+        np.testing.assert_array_equal(points.sample(f, grid), f.sample(grid, xy))
+        np.testing.assert_array_equal(points.sample(f, grid, outside=-1.0), f.sample(grid, xy, outside=-1.0))
