@@ -301,7 +301,8 @@ class MissedByF(GridFrontier):
                 return False
             points = origin + resolution * region
             low, high = points.min(axis=0) - door, points.max(axis=0) + door
-            hits = snapshot.hits[np.all((snapshot.hits >= low) & (snapshot.hits <= high), axis=1)]
+            x, y = snapshot.hits[:, 0], snapshot.hits[:, 1]
+            hits = snapshot.hits[(x >= low[0]) & (x <= high[0]) & (y >= low[1]) & (y <= high[1])]
             return seen_through_a_gap(points, cKDTree(hits), door, self.config.robot_radius,
                                       math.sqrt(2) * resolution, free_near)
 

@@ -20,7 +20,7 @@ from mapping.config import COMConfig, KernelConfig
 from mapping.drift import DriftMonitor, js_divergence
 from mapping.fusion import BCMAccumulator, bcm_fuse
 from mapping.gp import GaussianProcess, fit_hyperparameters
-from mapping.grid import GridFrame, cell_key, key_cells, unique_keys
+from mapping.grid import GridFrame, box, cell_key, key_cells, unique_keys
 from mapping.kernels import Kernel
 from mapping.localgp import predict_blocks
 from mapping.occupancy import MapSnapshot
@@ -122,7 +122,7 @@ class ContinuousOccupancyMap:
         if not kf.empty:
             cells, blocks, start = self._query_set(kf)                        # line 9
             self._grow(cells)               # may reject a wild pose: nothing is stored then
-            kf.blocks, kf.bounds = cell_key(blocks), (cells.min(0), cells.max(0))
+            kf.blocks, kf.bounds = cell_key(blocks), box(cells)
         self._keep(kf)
         if kf.empty:
             return 0.0
@@ -177,7 +177,7 @@ class ContinuousOccupancyMap:
             if relocated[k] and not fused[k].empty:
                 queries[k] = self._query_set(fused[k])
                 cells, blocks, _ = queries[k]
-                fused[k].blocks, fused[k].bounds = cell_key(blocks), (cells.min(0), cells.max(0))
+                fused[k].blocks, fused[k].bounds = cell_key(blocks), box(cells)
         cleared = np.unique(np.concatenate(
             [np.zeros(0, np.int64)] + [fused[k].blocks for k in np.flatnonzero(dirty)]
             + [old[k].blocks for k in np.flatnonzero(dirty[:len(old)])]))
@@ -397,13 +397,14 @@ class ContinuousOccupancyMap:
         return predict_blocks(gp.kernel, gp.noise_var, pts, idx, self.frame.centres(cells), start)
 
     def _grow(self, cells: np.ndarray) -> None:
-        lo, hi = cells.min(0), cells.max(0)
+        first, last = box(cells)
+        lo, hi = first, last
         if not self.frame.empty:
             lo = np.minimum(lo, [self.frame.ix0, self.frame.iy0])
             hi = np.maximum(hi, [self.frame.ix0 + self.frame.shape[1] - 1,
                                  self.frame.iy0 + self.frame.shape[0] - 1])
         self._check_size(lo, hi)
-        pad = self.frame.ensure(cells.min(0), cells.max(0))
+        pad = self.frame.ensure(first, last)
         if pad is not None:
             self._occ.pad(*pad)
             self._free.pad(*pad)

