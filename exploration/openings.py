@@ -28,6 +28,17 @@ def holding_hits(hits: np.ndarray, origin, resolution: float, shape: tuple[int, 
     return held
 
 
+def hits_near(hits: np.ndarray, points: np.ndarray, distance: float) -> np.ndarray:
+    """(m, 2) those of ``hits`` (k, 2) in the box of ``points`` (n, 2) widened by ``distance``
+    (all within ``distance`` of a point, in their order): a tree of them answers the
+    questions below about the points as one of all the hits does, when the hits are read in
+    their order (``return_sorted``), for a fraction of the building's cost (a tree of
+    office_g's 770 000 hits took 0.1 s)."""
+    low, high = points.min(axis=0) - distance, points.max(axis=0) + distance
+    x, y = hits[:, 0], hits[:, 1]
+    return hits[(x >= low[0]) & (x <= high[0]) & (y >= low[1]) & (y <= high[1])]
+
+
 def in_a_wall_gap(points: np.ndarray, hits: cKDTree, reach: float, tolerance: float,
                   side: float) -> bool:
     """Does the region ``points`` (k, 2), meters, lie in a gap of a wall's line? The line is
@@ -54,7 +65,7 @@ def in_a_wall_gap(points: np.ndarray, hits: cKDTree, reach: float, tolerance: fl
                                        for k in hits.query_ball_point(points, 2 * reach)]))
     said = False
     for end in (points[np.argmin(along)], points[np.argmax(along)]):
-        near = hits.data[hits.query_ball_point(end, reach)]
+        near = hits.data[hits.query_ball_point(end, reach, return_sorted=True)]
         direction = _direction(near) if len(near) >= 3 else None
         if direction is None:
             continue
@@ -62,7 +73,8 @@ def in_a_wall_gap(points: np.ndarray, hits: cKDTree, reach: float, tolerance: fl
         wall = hits.data[around]
         if _in_gap(points, wall, near.mean(axis=0), direction, tolerance, side):
             return True
-        centre, direction = _wall_line(hits.data[hits.query_ball_point(end, 2 * reach)], tolerance)
+        centre, direction = _wall_line(hits.data[hits.query_ball_point(end, 2 * reach, return_sorted=True)],
+                                       tolerance)
         if _in_gap(points, wall, centre, direction, tolerance, side):
             return True
     return not said

@@ -3,7 +3,7 @@
 import numpy as np
 from scipy.spatial import cKDTree
 
-from exploration.openings import holding_hits, in_a_wall_gap, seen_through_a_gap
+from exploration.openings import hits_near, holding_hits, in_a_wall_gap, seen_through_a_gap
 
 STEP = 0.05                 # a hit every 5 cm along a wall
 TOLERANCE = 0.1 * np.sqrt(2)  # a 0.1 m cell's diagonal
@@ -23,6 +23,30 @@ def region(x, y0, y1):
 
 def door(hits, points):
     return in_a_wall_gap(points, cKDTree(hits), 0.5, TOLERANCE, 0.25)
+
+
+def test_the_hits_near_a_region_say_what_all_the_hits_say():
+    """Each region of the tests here, with its walls among 20 000 hits scattered over a
+    40 m x 40 m building: read in a tree of the hits within twice the reach of its box
+    (``hits_near``, every hit within that distance of a point, in order), the answer is the
+    one a tree of all the hits gives."""
+    rng = np.random.default_rng(0)
+    clutter = rng.uniform(-20, 20, size=(20000, 2))
+    clutter = clutter[np.hypot(*clutter.T) > 6]
+    cases = [(np.vstack([wall((0, 0), (0, 2.0)), wall((0, 2.8), (0, 5))]), region(0.0, 2.1, 2.7)),
+             (np.vstack([wall((0, 2.8), (0, 5)), wall((0, 2.0), (2.0, 2.0))]), region(0.0, 2.1, 2.7)),
+             (np.vstack([wall((-2.0, 2.0), (0, 2.0)), wall((0.6, 2.5), (2.6, 2.5))]),
+              np.array([0.05, 2.05]) + np.linspace(0.0, 1.0, 7)[:, None] * np.array([0.5, 0.4]))]
+    answers = []
+    for walls, points in cases:
+        hits = np.vstack([clutter[:len(clutter) // 2], walls, clutter[len(clutter) // 2:]])
+        near = hits_near(hits, points, 1.0)
+        inside = np.all((hits >= points.min(axis=0) - 1.0) & (hits <= points.max(axis=0) + 1.0), axis=1)
+        np.testing.assert_array_equal(near, hits[inside])
+        assert len(near) < len(hits) // 100
+        answers.append(door(hits, points))
+        assert in_a_wall_gap(points, cKDTree(near), 0.5, TOLERANCE, 0.25) == answers[-1]
+    assert answers == [True, False, False]
 
 
 def test_a_gap_in_a_straight_wall_is_a_door():
