@@ -537,17 +537,23 @@ def nearest_view(points: np.ndarray, first: np.ndarray, reachable: Reachable,
                  cell_near: Callable[[np.ndarray, np.ndarray, int], np.ndarray | None],
                  shows: Callable[[np.ndarray], bool]) -> tuple[float, np.ndarray] | None:
     """(path length, goal in m) of the nearest by path of the goals by ``VIEWS`` of ``points``
-    (n, 2), spread from ``first`` (``spread``), that ``shows`` accepts; each goal is the cell
-    ``cell_near`` picks within reach of its point. None when no reachable one does."""
+    (n, 2), spread from ``first`` (``spread``), that ``shows`` accepts (the first spread of
+    those as near); each goal is the cell ``cell_near`` picks within reach of its point. None
+    when no reachable one does. The goals are asked nearest first, each cell once: a look is
+    the dearest part of a goal choice (a tenth of lab_e's grid run)."""
     views = []
     for point in spread(points, first, VIEWS):
         cell = cell_near(reachable.dist, reachable.cell(point), reachable.reach)
-        if cell is None or not np.isfinite(reachable.dist[cell[1], cell[0]]):
-            continue
-        goal = reachable.origin + reachable.resolution * cell
-        if shows(goal):
-            views.append((float(reachable.dist[cell[1], cell[0]]), goal))
-    return min(views, key=lambda v: v[0]) if views else None
+        if cell is not None and np.isfinite(reachable.dist[cell[1], cell[0]]):
+            views.append((float(reachable.dist[cell[1], cell[0]]), len(views), (int(cell[0]), int(cell[1]))))
+    asked = set()
+    for distance, _, cell in sorted(views):
+        if cell not in asked:
+            asked.add(cell)
+            goal = reachable.origin + reachable.resolution * np.array(cell)
+            if shows(goal):
+                return distance, goal
+    return None
 
 
 def spread(points: np.ndarray, first: np.ndarray, k: int) -> np.ndarray:

@@ -8,7 +8,8 @@ import pytest
 
 from exploration.costmap import passable
 from exploration.explorer import Explorer, ExplorerConfig
-from exploration.frontier_methods import CFrontier, DoorFrontier, MissedByF, look, within_reach
+from exploration.frontier_methods import (VIEWS, CFrontier, DoorFrontier, MissedByF, Reachable, look, nearest_view,
+                                          spread, within_reach)
 from exploration.frontier import frontier_map
 from exploration.gain import visible_unknown_area
 from exploration.goals import GoalConfig, extract_goals
@@ -813,3 +814,29 @@ def test_the_look_stops_at_an_unseen_face_the_obstacle_gp_predicts():
     assert look(evidence, (7.5, 4.0)) == pytest.approx(through_door)
     assert look(walled.prob, (2.5, 4.0)) > 5.0
     assert look(evidence, (2.5, 4.0)) == pytest.approx(look(walled.prob, (2.5, 4.0)))
+
+
+@pytest.mark.parametrize("accepted", [{5, 10}, {20, 25, 35}, set()])
+def test_the_nearest_view_is_the_nearest_by_path_that_shows_each_cell_asked_once(accepted):
+    """A row of frontier points at y = 1 m, x 0-3.9 m; path lengths fall towards x = 3 m, and
+    each point's goal is the cell at or below it on a 0.5 m lattice (two of the views share
+    one); the goals of the ``accepted`` cells (x) show. Against every spread view asked (the
+    nearest by path that shows; the first spread of those as near: x 3.5 m before 2.5 m):
+    the same goal, each goal asked once, none farther than the answer."""
+    dist = np.tile(np.abs(np.arange(40) - 30) * 0.1, (20, 1))
+    reachable = Reachable(dist, None, None, 1, np.zeros(2), RES, np.zeros(2), None)
+    points = np.column_stack([np.arange(40) * RES, np.full(40, 1.0)])
+    cell_near = lambda d, cell, reach: np.array([cell[0] // 5 * 5, cell[1]])
+    shows = lambda goal: round(goal[0] / RES) in accepted
+    views = [(dist[c[1], c[0]], RES * c) for c in (cell_near(dist, reachable.cell(p), 1)
+                                                 for p in spread(points, points[0], VIEWS))]
+    shown = [v for v in views if shows(v[1])]
+    asked = []
+    view = nearest_view(points, points[0], reachable, cell_near, lambda goal: asked.append(goal) or shows(goal))
+    if not shown:
+        assert view is None
+    else:
+        best = min(shown, key=lambda v: v[0])
+        assert view[0] == best[0] and np.array_equal(view[1], best[1])
+        assert max(dist[round(g[1] / RES), round(g[0] / RES)] for g in asked) <= best[0]
+    assert len({tuple(g) for g in asked}) == len(asked) < len(views)
