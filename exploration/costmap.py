@@ -462,9 +462,20 @@ def driven(trail: np.ndarray, resolution: float, origin, shape, max_step: float 
     h, w = shape
     inside = (cells[:, 0] >= 0) & (cells[:, 0] < w) & (cells[:, 1] >= 0) & (cells[:, 1] < h)
     cells, offset = cells[inside], offset[inside]
-    order = np.lexsort([np.linalg.norm(offset, axis=1), cells[:, 1] * w + cells[:, 0]])
-    cells, offset = cells[order], offset[order]
-    first = np.r_[True, np.any(np.diff(cells, axis=0) != 0, axis=1)][:len(cells)]
+    if not len(cells):
+        return cells, offset
+    # per cell, in row-major order, its point nearest the centre (the first of those as near):
+    # marked on arrays over the span of the cells' flat indices, not sorted (a sort of a long
+    # trail's points took half of this)
+    flat = cells[:, 1] * w + cells[:, 0]
+    lo = flat.min()
+    nearest = np.full(flat.max() - lo + 1, np.inf)
+    gap = np.linalg.norm(offset, axis=1)
+    np.minimum.at(nearest, flat - lo, gap)
+    at = np.flatnonzero(gap == nearest[flat - lo])
+    first = np.full(len(nearest), len(flat))
+    np.minimum.at(first, flat[at] - lo, at)
+    first = first[first < len(flat)]
     return cells[first], offset[first]
 
 

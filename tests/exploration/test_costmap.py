@@ -362,7 +362,7 @@ def test_paths_keep_off_walls_where_there_is_room_and_still_pass_a_door():
 def test_driven_cells_are_those_the_trail_crosses_at_their_nearest_point():
     """A trail from (1.0, 1.0) to (2.0, 1.0), then (2.0, 1.5), then a 3 m jump: the cells it
     crosses are x 1.0-2.0 at y 1.0 and y 1.0-1.5 at x 2.0, each at its own centre; the jump
-    adds none."""
+    adds none. A cell passed twice is at the point of the nearer pass."""
     cells, offset = driven(np.array([[1.0, 1.0], [2.0, 1.0], [2.0, 1.5], [5.0, 1.5]]), 0.1,
                            (0.0, 0.0), (50, 80))
     expected = {(ix, 10) for ix in range(10, 21)} | {(20, iy) for iy in range(10, 16)}
@@ -373,6 +373,16 @@ def test_driven_cells_are_those_the_trail_crosses_at_their_nearest_point():
     assert {tuple(c) for c in cells} == {(ix, 10) for ix in range(10, 21)}
     np.testing.assert_allclose(offset[:, 1], 0.03, atol=1e-9)
     assert np.abs(offset[:, 0]).max() <= 0.0125 + 1e-9
+    # two passes along each of two rows, the nearer one first (y 1.51, then 1.53 m) and last
+    # (y 1.03, then 1.01 m): each cell once, in row-major order, at its point of the nearer
+    trail = np.array([[1.0, 1.03], [2.0, 1.03], [2.0, 1.51], [1.0, 1.51], [1.0, 1.53], [2.0, 1.53],
+                      [2.0, 1.01], [1.0, 1.01]])
+    cells, offset = driven(trail, 0.1, (0.0, 0.0), (50, 80))
+    flat = cells[:, 1] * 80 + cells[:, 0]
+    assert np.all(np.diff(flat) > 0)
+    between = (cells[:, 0] > 10) & (cells[:, 0] < 20)          # not on the loop's sides
+    np.testing.assert_allclose(offset[between & (cells[:, 1] == 10), 1], 0.01, atol=1e-9)
+    np.testing.assert_allclose(offset[between & (cells[:, 1] == 15), 1], 0.01, atol=1e-9)
     assert len(driven(np.zeros((1, 2)), 0.1, (0.0, 0.0), (50, 80))[0]) == 0
 
 
