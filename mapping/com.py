@@ -397,14 +397,14 @@ class ContinuousOccupancyMap:
         return predict_blocks(gp.kernel, gp.noise_var, pts, idx, self.frame.centres(cells), start)
 
     def _grow(self, cells: np.ndarray) -> None:
-        first, last = box(cells)
-        lo, hi = first, last
+        bounds = box(cells)
+        lo, hi = bounds
         if not self.frame.empty:
             lo = np.minimum(lo, [self.frame.ix0, self.frame.iy0])
             hi = np.maximum(hi, [self.frame.ix0 + self.frame.shape[1] - 1,
                                  self.frame.iy0 + self.frame.shape[0] - 1])
         self._check_size(lo, hi)
-        pad = self.frame.ensure(first, last)
+        pad = self.frame.ensure(*bounds)
         if pad is not None:
             self._occ.pad(*pad)
             self._free.pad(*pad)

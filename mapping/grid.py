@@ -187,4 +187,3 @@ class FixedPoints:
         out = values[np.maximum(self._flat, 0)] if len(values) else np.empty(len(self.xy))
         out[self._flat < 0] = outside
         return out
-
