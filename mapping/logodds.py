@@ -181,7 +181,7 @@ class LogOddsGrid:
         self.logodds = np.where(tile_mask(frame, cleared, TILE), 0.0,
                                 reframed(self.logodds, self.frame, frame))
         self.frame, self._traced = frame, traced
-        beside = np.unique(cell_key((key_cells(cleared)[:, None, :] + _AROUND).reshape(-1, 2)))
+        beside = unique_keys((key_cells(cleared)[:, None, :] + _AROUND).reshape(-1, 2))
         for k, record in enumerate(traced):
             if record.bounds is None or not touches(record.tiles, cleared).any():
                 continue
