@@ -14,7 +14,8 @@ counts as failed. --workers runs at a time (default 1: cost per scan is a figure
 
 Writes ``suite.md`` and ``suite.csv`` (one row per world and method: runs that succeeded,
 crashes, coverage mean and worst, travel, tail = travel after 99 % coverage as a share of travel,
-missed area, how runs ended, collisions, ATE, cost per scan) and Table I per world
+late = travel after the last 1 m² seen as a share of travel (the part of the tail the stop could
+have saved), missed area, how runs ended, collisions, ATE, cost per scan) and Table I per world
 (``table.md``), prints the table, then one summary line. Prints, never asserts. Targets (issue
 13): every run ends by itself with >= 99 % coverage, 0 crashes, 0 collisions, gp/grid travel
 <= 1, tail <= 10 %, GP cost per scan on office_g <= 1.5x the cave's, the whole suite, both

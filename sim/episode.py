@@ -140,6 +140,7 @@ class Evaluator:
         self.entropy_at = FixedPoints(entropy_cells(world.extent))
         self.start = world.cell_of(np.asarray(start_xy, float))       # (ix, iy)
         self.world = world
+        self.area_m2 = self.cells[0].size * world.resolution[0] * world.resolution[1]
 
     def coverage(self, stack: Stack, prob: np.ndarray) -> float:
         return coverage(self.free.sample(stack.map.frame, prob))
@@ -368,6 +369,7 @@ def _metrics(result: EpisodeResult, evaluator: Evaluator, robot: Robot, seed: in
         "missed_regions": missed_regions,
         "stop_failed": stop_failed(reason, missed),
         "travel_at_coverage_m": {f"{q:.2f}": _first_at(curve, q) for q in (0.90, 0.95, 0.99)},
+        "travel_at_last_gain_m": _last_gain(curve, evaluator.area_m2),
         "auc": evaluator.auc(stack, prob),
         "ate_rmse_m": float(np.sqrt(np.mean(np.sum(error ** 2, axis=1)))),
         "collisions": robot.collisions,
@@ -378,3 +380,11 @@ def _first_at(curve: np.ndarray, level: float) -> float | None:
     """Travel (m) when coverage first reached ``level``; None if it never did."""
     hit = np.flatnonzero(curve[:, 2] >= level)
     return float(curve[hit[0], 1]) if hit.size else None
+
+
+def _last_gain(curve: np.ndarray, area_m2: float) -> float:
+    """Travel (m) at the first sample whose coverage of the reachable ``area_m2`` is within
+    ``MISSED_REGION_M2`` of the run's final coverage: the robot saw less than a missed region's
+    worth after it, so what it drove after it is how late the stop came."""
+    seen = curve[:, 2] * area_m2
+    return float(curve[np.flatnonzero(seen >= seen[-1] - MISSED_REGION_M2)[0], 1])

@@ -158,10 +158,20 @@ def outcome(run) -> dict:
 
 def tail_share(m: dict) -> float | None:
     """Share of a run's travel driven after it first reached 99 % coverage; None if it never did."""
-    at99, travel = m["travel_at_coverage_m"].get("0.99"), m["travel_distance_m"]
-    if at99 is None:
+    return _share_after(m["travel_at_coverage_m"].get("0.99"), m["travel_distance_m"])
+
+
+def late_share(m: dict) -> float | None:
+    """Share of a run's travel driven after its last gain (``travel_at_last_gain_m``: it saw less
+    than a missed region's 1 m² more after it), the part of the tail the stop could have saved;
+    None for runs written before it was recorded."""
+    return _share_after(m.get("travel_at_last_gain_m"), m["travel_distance_m"])
+
+
+def _share_after(at: float | None, travel: float) -> float | None:
+    if at is None:
         return None
-    return (travel - at99) / travel if travel > 0 else 0.0
+    return (travel - at) / travel if travel > 0 else 0.0
 
 
 def failed_stop(m: dict) -> bool:
@@ -199,8 +209,8 @@ def _mean(values) -> float | None:
 
 def suite_rows(outcomes: list[dict]) -> list[dict]:
     """One row per world and method, in the order of ``outcomes``: runs planned, finished, crashed
-    and succeeded; coverage mean and worst; travel, tail share, missed area (mean and worst),
-    ATE and cost per scan, means over the finished runs; collisions summed; how runs ended."""
+    and succeeded; coverage mean and worst; travel, tail and late shares, missed area (mean and
+    worst), ATE and cost per scan, means over the finished runs; collisions summed; how runs ended."""
     groups: dict[tuple[str, str], list[dict]] = {}
     for o in outcomes:
         groups.setdefault((o["world"], o["method"]), []).append(o)
@@ -215,6 +225,7 @@ def suite_rows(outcomes: list[dict]) -> list[dict]:
             "coverage_worst": min((m["coverage"] for m in done), default=None),
             "travel_m": _mean(m["travel_distance_m"] for m in done),
             "tail_share": _mean(map(tail_share, done)),
+            "late_share": _mean(map(late_share, done)),
             "missed_area_m2": _mean(m.get("missed_area_m2") for m in done),
             "missed_area_worst_m2": max((m.get("missed_area_m2", 0.0) for m in done), default=None),
             "ended": dict(sorted(reasons.items())),
@@ -233,9 +244,9 @@ COST_REFERENCES = ("cave.png", "cave")
 def suite_summary(outcomes: list[dict], wall_s: float) -> dict:
     """The suite's figures over every planned run: the share that succeeded (``succeeded``),
     crashes, collisions, step-budget stops and failed stops; the C-frontier/grid travel as the
-    mean of ratios paired by world and seed (both finished); the mean tail share; the GP cost per
-    scan on the largest world (by reachable area) against the cave's; ``wall_s`` (the benchmark's
-    wall time) and the finished runs' wall time summed."""
+    mean of ratios paired by world and seed (both finished); the mean tail and late shares; the
+    GP cost per scan on the largest world (by reachable area) against the cave's; ``wall_s`` (the
+    benchmark's wall time) and the finished runs' wall time summed."""
     done = [o["metrics"] for o in outcomes if o["metrics"] is not None]
     travel = {(o["world"], o["seed"], o["method"]): o["metrics"]["travel_distance_m"]
               for o in outcomes if o["metrics"] is not None}
@@ -259,6 +270,7 @@ def suite_summary(outcomes: list[dict], wall_s: float) -> dict:
         "failed_behind_narrow_doors": sum(map(behind_narrow_doors, done)),
         "travel_ratio": _mean(ratios), "pairs": len(ratios),
         "tail_share": _mean(map(tail_share, done)),
+        "late_share": _mean(map(late_share, done)),
         "largest": largest, "largest_ms_per_scan": _mean(gp_cost.get(largest, [])) if largest else None,
         "reference": reference, "reference_ms_per_scan": _mean(gp_cost[reference]) if reference else None,
         "wall_s": wall_s, "runs_wall_s": sum(m["wall_time_s"] for m in done),
@@ -283,7 +295,8 @@ def summary_line(s: dict) -> str:
             f"{s['step_budget_stops']} step-budget stops, {s['failed_stops']} failed stops (missed >= 1 m²; "
             f"{s['failed_behind_narrow_doors']} only behind doors < {REQUIRED_DOOR_M} m); "
             f"gp/grid travel {_num(s['travel_ratio'], '.2f')} (mean of {s['pairs']} paired ratios); "
-            f"tail {_num(s['tail_share'], '.1f', 100)} % of travel; {cost}; wall {s['wall_s'] / 60:.1f} min "
+            f"tail {_num(s['tail_share'], '.1f', 100)} % of travel ({_num(s['late_share'], '.1f', 100)} % after "
+            f"the last 1 m² seen); {cost}; wall {s['wall_s'] / 60:.1f} min "
             f"(runs' own {s['runs_wall_s'] / 60:.1f} min)")
 
 
@@ -291,7 +304,7 @@ def summary_line(s: dict) -> str:
 COLUMNS = [("world", "world", "s", 1), ("method", "method", "s", 1), ("ok/runs", None, "", 1),
            ("crashed", "crashed", "d", 1), ("coverage %", "coverage", ".1f", 100),
            ("worst %", "coverage_worst", ".1f", 100), ("travel m", "travel_m", ".1f", 1),
-           ("tail %", "tail_share", ".1f", 100), ("missed m²", "missed_area_m2", ".1f", 1),
+           ("tail %", "tail_share", ".1f", 100), ("late %", "late_share", ".1f", 100), ("missed m²", "missed_area_m2", ".1f", 1),
            ("worst missed m²", "missed_area_worst_m2", ".1f", 1), ("ended", "ended", "", 1),
            ("collisions", "collisions", "d", 1), ("ATE m", "ate_m", ".3f", 1),
            ("ms/scan", "ms_per_scan", ".1f", 1)]

@@ -64,6 +64,18 @@ def test_a_stop_is_failed_only_when_a_region_is_missed():
     assert stop_failed("step_budget", 0.0)
 
 
+def test_the_last_gain_is_where_less_than_a_missed_region_was_left_to_see():
+    from sim.episode import MISSED_REGION_M2, _last_gain
+
+    # 200 m² reachable: coverage (step, travel m, share, entropy); the run ends at 99.7 % (199.4 m²)
+    curve = np.array([(0, 0.0, 0.50, 0.0), (25, 10.0, 0.95, 0.0), (50, 20.0, 0.990, 0.0),
+                      (75, 30.0, 0.996, 0.0), (100, 40.0, 0.995, 0.0), (125, 55.0, 0.997, 0.0)])
+    # at 20 m 198.0 m² were seen, 1.4 m² short of the end; at 30 m 199.2 m², 0.2 m² short
+    assert MISSED_REGION_M2 == 1.0 and _last_gain(curve, 200.0) == 30.0
+    assert _last_gain(curve, 50.0) == 20.0           # 50 m²: 49.5 at 20 m is 0.35 m² short
+    assert _last_gain(curve[:1], 200.0) == 0.0       # a single sample is its own last gain
+
+
 def rooms_and_door(door: int = 20) -> World:
     """Room A, x in [0.1, 5.0), and room B, x in [5.2, 9.2), both y in [0.1, 5.1), 5 cm cells;
     between them a wall with a door of ``door`` cells (1 m by default) from y = 2.0."""

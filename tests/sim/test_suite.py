@@ -146,11 +146,15 @@ def test_starts_on_a_real_floor_plan_are_reachable_and_clear():
 
 
 def fabricated(world, method, seed, travel, coverage=0.995, reason="frontiers_exhausted", at99=None,
-               missed=0.0, collisions=0, wall=10.0, steps=1000, area=300.0, onboard=None, doors=()):
-    """A finished run's outcome; ``doors``: the door to each missed region, m (``missed`` m² shared)."""
+               missed=0.0, collisions=0, wall=10.0, steps=1000, area=300.0, onboard=None, doors=(),
+               last=None):
+    """A finished run's outcome; ``doors``: the door to each missed region, m (``missed`` m² shared);
+    ``last``: its travel at the last gain (None: written before that was recorded)."""
     from sim.episode import stop_failed
 
     own = {} if onboard is None else {"onboard_time_s": onboard}
+    if last is not None:
+        own["travel_at_last_gain_m"] = last
     if doors:
         own["missed_regions"] = [{"area_m2": missed / len(doors), "door_m": d} for d in doors]
     return {"world": world, "method": method, "seed": seed, "crashed": False, "metrics": {**own,
@@ -200,6 +204,20 @@ def test_the_summary_counts_successes_failures_and_pairs_the_travel():
                            "1 only behind doors < 0.8 m)")
     assert "gp/grid travel 1.17 (mean of 3 paired ratios)" in line and "1.36x cave.png" in line
     assert "\n" not in line
+
+
+def test_the_late_share_is_the_travel_after_the_last_gain_over_runs_that_recorded_it():
+    from sim.suite import suite_rows, suite_summary, summary_line
+
+    runs = [fabricated("w", "gp", 0, 80.0, at99=60.0, last=70.0),      # tail 25 %, late 12.5 %
+            fabricated("w", "gp", 1, 50.0, at99=50.0, last=50.0),      # ended at its last gain
+            fabricated("w", "gp", 2, 40.0, at99=30.0)]                 # written before: not counted
+    s = suite_summary(runs, wall_s=60.0)
+    assert s["late_share"] == pytest.approx((10 / 80 + 0.0) / 2)
+    assert s["tail_share"] == pytest.approx((20 / 80 + 0.0 + 10 / 40) / 3)
+    assert suite_rows(runs)[0]["late_share"] == pytest.approx(s["late_share"])
+    assert "tail 16.7 % of travel (6.2 % after the last 1 m² seen)" in summary_line(s)
+    assert suite_summary(runs[2:], wall_s=60.0)["late_share"] is None
 
 
 def test_a_failed_stop_is_put_down_to_narrow_doors_only_when_every_missed_region_is_behind_one():
