@@ -304,7 +304,8 @@ def summary_line(s: dict) -> str:
 COLUMNS = [("world", "world", "s", 1), ("method", "method", "s", 1), ("ok/runs", None, "", 1),
            ("crashed", "crashed", "d", 1), ("coverage %", "coverage", ".1f", 100),
            ("worst %", "coverage_worst", ".1f", 100), ("travel m", "travel_m", ".1f", 1),
-           ("tail %", "tail_share", ".1f", 100), ("late %", "late_share", ".1f", 100), ("missed m²", "missed_area_m2", ".1f", 1),
+           ("tail %", "tail_share", ".1f", 100), ("late %", "late_share", ".1f", 100),
+           ("missed m²", "missed_area_m2", ".1f", 1),
            ("worst missed m²", "missed_area_worst_m2", ".1f", 1), ("ended", "ended", "", 1),
            ("collisions", "collisions", "d", 1), ("ATE m", "ate_m", ".3f", 1),
            ("ms/scan", "ms_per_scan", ".1f", 1)]
