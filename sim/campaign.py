@@ -36,6 +36,7 @@ ROWS = [
     ("Travel at 90 % coverage (m)", ("travel_at_coverage_m", "0.90"), 1.0),
     ("Travel at 95 % coverage (m)", ("travel_at_coverage_m", "0.95"), 1.0),
     ("Travel at 99 % coverage (m)", ("travel_at_coverage_m", "0.99"), 1.0),
+    ("Travel at the last gain (m)", "travel_at_last_gain_m", 1.0),
     ("ATE RMSE (m)", "ate_rmse_m", 1.0),
     ("Collisions", "collisions", 1.0),
     ("Wall time (s)", "wall_time_s", 1.0),
@@ -283,6 +284,7 @@ def termination_counts(results: dict[str, list[dict]]) -> dict[str, dict[str, in
 #: Decimals of each Table I metric (by metrics key), the same for its mean and standard error.
 DECIMALS = {"travel_distance_m": 1, "sim_time_s": 1, "entropy_rate_nats_per_step": 2,
             "final_map_entropy_nats": 0, "coverage": 1, "auc": 3, "travel_at_coverage_m": 1,
+            "travel_at_last_gain_m": 1,
             "ate_rmse_m": 3, "collisions": 1, "wall_time_s": 1, "missed_area_m2": 1}
 
 

@@ -211,7 +211,7 @@ def test_campaign_writes_runs_tables_and_figures(tmp_path):
         m = json.loads((out / "room.png" / method / "seed_0" / "metrics.json").read_text())
         assert (m["method"], m["seed"], m["poses"]) == (method, 0, "truth") and m["steps"] <= 40
     assert "## room.png" in (out / "table.md").read_text()
-    assert len((out / "table.csv").read_text().splitlines()) == 1 + 2 * 12
+    assert len((out / "table.csv").read_text().splitlines()) == 1 + 2 * 13     # 13 metrics, 2 methods
     assert len(list((out / "figures").glob("room.png_*.png"))) == 3
     again = runner.invoke(app, args)
     assert again.exit_code == 0 and "2 runs were done before, 0 finished now" in again.output
