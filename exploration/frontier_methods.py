@@ -173,7 +173,9 @@ class GridFrontier:
         regions = grid_frontiers(evidence(snapshot), self.costmap, self.min_cells(snapshot.resolution),
                                  self.surfaces(snapshot))
         if near is not None:
-            regions = [r for r in regions if _reaches(snapshot, r, *near)]
+            points, reach = near
+            tree = cKDTree(points)              # one tree of the goal's points for every region
+            regions = [r for r in regions if _reaches(snapshot, r, tree, reach)]
         cells = np.vstack(regions) if regions else np.zeros((0, 2), int)
         values = np.zeros(snapshot.prob.shape)
         values[cells[:, 1], cells[:, 0]] = 1.0
@@ -570,11 +572,11 @@ def spread(points: np.ndarray, first: np.ndarray, k: int) -> np.ndarray:
     return points[taken]
 
 
-def _reaches(snapshot: MapSnapshot, region: np.ndarray, points: np.ndarray, reach: float) -> bool:
+def _reaches(snapshot: MapSnapshot, region: np.ndarray, points: cKDTree, reach: float) -> bool:
     """Has the region (k, 2) of cells a cell (its centre) closer than ``reach`` m to one of
-    ``points`` (m, 2) m (or as close, to within a nanometre)?"""
+    the ``points`` (a tree of them, m) (or as close, to within a nanometre)?"""
     centres = np.asarray(snapshot.origin, float) + snapshot.resolution * region
-    return bool(cKDTree(points).query(centres)[0].min() < reach + 1e-9)
+    return bool(points.query(centres)[0].min() < reach + 1e-9)
 
 
 def beside_the_open_unknown(free: np.ndarray, occupied: np.ndarray) -> np.ndarray:

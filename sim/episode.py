@@ -140,7 +140,8 @@ class Evaluator:
         self.entropy_at = FixedPoints(entropy_cells(world.extent))
         self.start = world.cell_of(np.asarray(start_xy, float))       # (ix, iy)
         self.world = world
-        self.area_m2 = self.cells[0].size * world.resolution[0] * world.resolution[1]
+        self.cell_m2 = world.resolution[0] * world.resolution[1]
+        self.area_m2 = self.cells[0].size * self.cell_m2
 
     def coverage(self, stack: Stack, prob: np.ndarray) -> float:
         return coverage(self.free.sample(stack.map.frame, prob))
@@ -156,8 +157,7 @@ class Evaluator:
         unknown = np.zeros_like(self.reachable)
         unknown[self.cells[0][~known], self.cells[1][~known]] = True
         labels, n = ndimage.label(unknown)
-        cell = self.world.resolution[0] * self.world.resolution[1]
-        areas = np.bincount(labels.ravel(), minlength=n + 1)[1:] * cell
+        areas = np.bincount(labels.ravel(), minlength=n + 1)[1:] * self.cell_m2
         regions = []
         for label in np.flatnonzero(areas >= min_region_m2) + 1:
             region = labels == label
