@@ -7,7 +7,11 @@ Prints, never asserts, per log: scans, keyframes and loop closures; the real-tim
 Pose SLAM and its wall time against the scan-matching front end alone (loop closing off) in the
 same run; for GMapping-corrected logs, the agreement with GMapping's poses after SE(2) alignment,
 matched by scan order (RMSE, p95, max, heading RMSE: GMapping's maps are good, but not ground
-truth); for MIT CSAIL, the Kümmerle relation error (mean, short/long, p95, max). With
+truth); the map's self-consistency, which needs no reference (``slam.consistency``: how far
+each scan point lies from the surfaces the scans 5 m of travel away saw there; median and p90,
+and beside them GMapping's poses' on a corrected log, so that a disagreement with GMapping can
+be told from a worse map); for MIT CSAIL, the Kümmerle relation error (mean, short/long, p95,
+max). With
 ``--perturb N``, N more replays with the ranges perturbed by seeded 1 mm Gaussian noise: the
 largest trajectory RMSE between a perturbed replay and the clean one, and the spread (max − min)
 of their agreement with GMapping. A crash is a row too, with its error. ``--config`` replays with a
@@ -41,12 +45,16 @@ from slam.config import SlamConfig  # noqa: E402
 from slam.evaluation import read_relations, relation_error  # noqa: E402
 from slam.false_loops import inject_false_loops  # noqa: E402
 from slam.pose_slam import PoseSlam  # noqa: E402
-from slam.replay import replay_metrics  # noqa: E402
+from slam.replay import log_consistency, replay_metrics  # noqa: E402
 
 
 #: Chance that a candidate verification turned down returns a false loop instead: on MIT CSAIL
 #: about 50 % as many false loops as true ones.
 FALSE_LOOP_RATE = 0.12
+
+
+def _cm(metres: float | None) -> str:
+    return "—" if metres is None else f"{100 * metres:.2f} cm"
 
 
 def perturbed(log: CarmenLog, sigma: float, seed: int) -> CarmenLog:
@@ -84,6 +92,13 @@ def row(path: Path, relations_dir: Path, perturb: int, seed: int, config: SlamCo
         out.append(f"  vs GMapping: RMSE {a['rmse_m']:.3f} m, p95 {a['p95_m']:.3f}, max {a['max_m']:.3f}, "
                    f"heading RMSE {a['rot_rmse_deg']:.2f} deg (front end alone: RMSE {f['rmse_m']:.3f} m, "
                    f"max {f['max_m']:.3f})")
+    c = m["self_consistency"]
+    line = (f"  self-consistency: {100 * c['revisited']:.0f} % of points seen again, "
+            f"{_cm(c['median_m'])} median, {_cm(c['p90_m'])} p90")
+    if corrected:
+        g = log_consistency(log, [r.pose for r in log], full.slam)
+        line += f" (GMapping's poses: {_cm(g['median_m'])}, {_cm(g['p90_m'])})"
+    out.append(line)
     relations = relations_dir / (path.name.split(".")[0] + ".relations")
     if relations.exists():
         odometry = [r.odometry for r in log]

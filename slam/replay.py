@@ -10,6 +10,7 @@ import numpy as np
 
 from slam.atomic import write_json_atomic
 from slam.carmen import CarmenLog, write_corrected_log
+from slam.consistency import revisit_distances, self_consistency, travel
 from slam.evaluation import read_relations, relation_error
 from slam.laser_log import LaserLog, LaserMount
 from slam.pose_slam import PoseSlam
@@ -79,11 +80,21 @@ def replay_metrics(log: LaserLog, result: ReplayResult) -> dict:
         "degenerate_matches": slam.degenerate_matches,
         "fallbacks": {**slam.fallbacks, **slam.graph.fallbacks, **slam.front_end.counts},
         "largest_correction_m": slam.largest_correction,
+        "self_consistency": log_consistency(log, result.trajectory, slam),
         "log_duration_s": log.duration,
         "wall_time_s": result.wall_time,
         "real_time_factor": (log.duration / result.wall_time
                              if result.wall_time > 0 and log.duration else None),
     }
+
+
+def log_consistency(log: LaserLog, trajectory: list[gtsam.Pose2], slam: PoseSlam) -> dict:
+    """How well ``trajectory``'s scans of ``log`` agree where the robot came back
+    (``slam.consistency``), pairs of scans chosen by the travel along the log's own poses, so
+    that two trajectories of one log are compared on the same pairs."""
+    scans = [r.scan.points() for r in log]
+    return self_consistency(revisit_distances(trajectory, scans, slam.laser_offset, travel([r.pose for r in log]),
+                                              registration=slam.config.front_end.registration))
 
 
 def trajectory_figure(path: str | Path, result: ReplayResult, max_points: int = 200000) -> None:

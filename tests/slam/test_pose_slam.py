@@ -118,6 +118,8 @@ def test_a_log_with_zero_stamps_and_no_odometry_replays(shared_data):
     assert metrics["real_time_factor"] is None and log.duration is None   # all stamps are 0
     assert metrics["fallbacks"]["motion_prior_links"] > 0
     assert metrics["loops"]["accepted"] == metrics["loop_closures"] == len(result.slam.loops)
+    consistency = metrics["self_consistency"]          # its scans see their corridors again
+    assert 0.5 < consistency["revisited"] <= 1 and 0 <= consistency["median_m"] <= consistency["p90_m"]
 
 
 ROOM = [(0, 0.0, 0, 6), (0, 7.0, 0, 6), (1, 0.0, 0, 7), (1, 6.0, 0, 7), (0, 3.0, 2, 4), (1, 2.0, 3, 5)]
