@@ -8,8 +8,8 @@ import pytest
 
 from exploration.costmap import passable
 from exploration.explorer import Explorer, ExplorerConfig
-from exploration.frontier_methods import (VIEWS, CFrontier, DoorFrontier, GridFrontier, MissedByF, Reachable,
-                                          goal_look, look, nearest_view, spread, within_reach)
+from exploration.frontier_methods import (VIEWS, CFrontier, DoorFrontier, MissedByF, Reachable, look, nearest_view,
+                                          spread, within_reach)
 from exploration.frontier import frontier_map
 from exploration.gain import visible_unknown_area
 from exploration.goals import GoalConfig, extract_goals
@@ -840,51 +840,3 @@ def test_the_nearest_view_is_the_nearest_by_path_that_shows_each_cell_asked_once
         assert view[0] == best[0] and np.array_equal(view[1], best[1])
         assert max(dist[round(g[1] / RES), round(g[0] / RES)] for g in asked) <= best[0]
     assert len({tuple(g) for g in asked}) == len(asked) < len(views)
-
-
-@pytest.mark.parametrize("method", ["gp", "grid"])
-@pytest.mark.parametrize("hits", [False, True])
-def test_a_goal_s_look_on_its_window_is_the_whole_map_s(method, hits):
-    """``goal_look`` reads the cells round the goal alone: with a 2 m laser, from every 0.35 m
-    over the map and round it (windows inside the room, across its walls and doors, at its
-    corners and off it), the look is the one on the whole map's look map and clearance, with
-    the walls' hits or without (the clearance then from the occupied cells, which may lie
-    outside the look's own window)."""
-    config = ExplorerConfig(method=method, sensor_range=2.0)
-    snapshot = two_openings() if method == "gp" else as_grid(two_openings())
-    snapshot = with_wall_hits(snapshot) if hits else snapshot
-    explorer = Explorer(config)
-    reachable = explorer._reachable(snapshot, ROBOT)
-    source = CFrontier(config) if method == "gp" else GridFrontier(config)
-    reached = within_reach(source.frontier(snapshot), reachable, config.robot_radius, source.costmap)
-    shown = []
-    for at in [(x, y) for x in np.arange(-0.5, 10.5, 0.35) for y in np.arange(-0.5, 8.5, 0.35)]:
-        whole = look(reached, reachable, np.array(at), config, source.costmap)
-        assert goal_look(snapshot, reachable, np.array(at), config, source.costmap) == pytest.approx(whole, abs=1e-9)
-        shown.append(whole)
-    assert max(shown) >= config.min_gain and min(shown) < config.min_gain    # both sides of the test
-
-
-def test_a_kept_goal_whose_look_shows_too_little_is_dropped():
-    """The door's goal; on the way, the space past the door turns out a closet, but for a
-    1.0 × 0.3 m pocket along its back wall left unknown, whose frontier (16 points of F, more
-    than half the goal's) is still within reach of the goal's target. The look from the goal
-    shows 0.08 m² (the pocket is within the robot's radius of the wall): no new choice would take
-    it, and it is not kept; the run ends. Asked for any gain, the goal is kept."""
-    pocket = explored_opening()
-    pocket.prob[35:45, 89:92] = UNKNOWN
-    pocket.prob_occ[35:45, 89:92] = UNKNOWN
-    for min_gain, kept in ((ExplorerConfig().min_gain, False), (0.0, True)):
-        config = ExplorerConfig(min_gain=min_gain)
-        explorer = Explorer(config)
-        plan = explorer.plan(one_opening(), ROBOT)
-        here = gtsam.Pose2(*plan.path[len(plan.path) // 2], 0.3)
-        near = np.linalg.norm(frontier_points(pocket)[:, None] - explorer.target[None], axis=2).min(axis=1)
-        assert np.count_nonzero(near < config.goals.reach) >= len(explorer.target) // 2
-        shown = goal_look(pocket, explorer._reachable(pocket, here), plan.goal, config, config.costmap)
-        assert 0.0 < shown < ExplorerConfig().min_gain
-        again = explorer.plan(pocket, here)
-        if kept:
-            assert not again.new_goal and np.array_equal(again.goal, plan.goal)
-        else:
-            assert again.goal is None and again.done == "frontiers_exhausted"
