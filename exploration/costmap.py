@@ -142,21 +142,14 @@ _EIGHT = np.ones((3, 3), dtype=bool)
 
 
 def distance_to_points(points: np.ndarray, origin, resolution: float, shape: tuple[int, int],
-                       bound: float, cached: bool = True) -> np.ndarray:
+                       bound: float) -> np.ndarray:
     """(h, w) meters from each cell centre of the (h, w) ``shape`` grid (cell (0, 0)'s centre
     at ``origin``) to the nearest of ``points`` (k, 2), inf where none is nearer than ``bound``:
     each point writes its distance into the cells within ``bound`` of it, so the cost is the
     points times the cells of that disc, whatever the map's size; points that extend those of
-    a recent call on the same grid (``_Scattered``) cost only what they add. ``cached`` False:
-    a field of its own, kept nowhere (a small window's, which would push a map's out)."""
-    points = np.asarray(points, dtype=float).reshape(-1, 2)
-    if not cached:
-        d2 = np.full(shape, np.inf)
-        if len(points):
-            _scatter_distances(np.ascontiguousarray(points), float(origin[0]), float(origin[1]),
-                               float(resolution), float(bound), d2)
-        return np.sqrt(d2)
-    return np.sqrt(_SCATTERED.squared(points, origin, resolution, shape, bound))
+    a recent call on the same grid (``_Scattered``) cost only what they add."""
+    return np.sqrt(_SCATTERED.squared(np.asarray(points, dtype=float).reshape(-1, 2), origin,
+                                      resolution, shape, bound))
 
 
 class _Scattered:

@@ -2,9 +2,8 @@
 paper's method) and the nearest-frontier baseline.
 
 Both read the map as a snapshot and the robot's pose, and differ only in how they find frontiers
-and rank them (``frontier_methods.py``). Both keep their goal until its frontier is gone, its
-path is blocked or its look no longer shows what made it a goal: re-selecting at every update
-makes the goal switch dozens of times a run. A goal
+and rank them (``frontier_methods.py``). Both keep their goal until its frontier is gone or its
+path is blocked: re-selecting at every update makes the goal switch dozens of times a run. A goal
 the robot cannot reach is blacklisted, with a radius, rather than retried forever.
 """
 
@@ -23,7 +22,7 @@ from scipy.spatial import cKDTree
 from exploration.costmap import CostmapConfig, driven, passable
 from exploration.follower import rest_of_path
 from exploration.frontier_methods import (CFrontier, DoorFrontier, Frontier, GridFrontier, MissedByF,
-                                          Reachable, evidence, goal_look)
+                                          Reachable, evidence)
 from exploration.goals import Blacklist, FrontierCluster, GoalConfig
 from exploration.paths import distance_field, near_distance
 from mapping.occupancy import MapSnapshot
@@ -138,8 +137,7 @@ class Explorer:
 
     def plan(self, snapshot: MapSnapshot, pose: gtsam.Pose2) -> Plan:
         """A goal and a path for the robot at ``pose`` on this map snapshot: keep the goal while
-        its frontier remains, its path is open and it still shows what made it a goal
-        (``_still_shows``), else choose the best frontier cluster.
+        its frontier remains and its path is open, else choose the best frontier cluster.
 
         A C-frontier goal is kept, or not, on the map round its target alone (F there,
         ``CFrontier.cells_near``) and a search that ends at the goal (``paths.distance_field``
@@ -150,14 +148,14 @@ class Explorer:
         if local:
             cells = self.method.cells_near(snapshot, self._targets(), self.config.goals.reach)
             reachable = self._reachable(snapshot, pose, costmap, until=self.goal)
-            if self._goal_still_valid(cells, reachable) and self._still_shows(snapshot, reachable):
+            if self._goal_still_valid(cells, reachable):
                 return Plan(self.goal, reachable.path(self.goal))
         reachable = self._reachable(snapshot, pose, costmap)
         frontier = self.method.frontier(snapshot)
         if self.goal is not None and not local:
             source = (frontier if self.source is self.method
                       else self.source.keeping(snapshot, self._targets(), self.config.goals.reach))
-            if self._goal_still_valid(source.cells, reachable) and self._still_shows(snapshot, reachable):
+            if self._goal_still_valid(source.cells, reachable):
                 return Plan(self.goal, reachable.path(self.goal))
         plan = self._choose(snapshot, frontier, reachable)
         if plan.done == "no_reachable_goal" and self._reopen(snapshot):
@@ -286,17 +284,6 @@ class Explorer:
         32 of) the frontier points it serves."""
         targets = np.vstack([self.target, self.goal[None]])
         return targets[::max(1, len(targets) // 32)]
-
-    def _still_shows(self, snapshot: MapSnapshot, reachable: Reachable) -> bool:
-        """Does the method's goal still show ``min_gain`` from where it is (``goal_look``), as it
-        did when chosen? What the robot sees on the way may leave its frontier a remnant with
-        nothing behind it worth the rest of the trip, and a goal no new choice would take is not
-        kept either. The stop's checks' goals (doors, ``MissedByF``) look by their own rules
-        and are kept on their regions alone."""
-        if self.source is not self.method:
-            return True
-        c = self.config
-        return goal_look(snapshot, reachable, self.goal, c, self.method.costmap) >= c.min_gain
 
     def _goal_still_valid(self, cells: np.ndarray, reachable: Reachable) -> bool:
         """The goal is still reachable and frontier ``cells`` (n, 2) remain near its target."""

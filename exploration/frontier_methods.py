@@ -447,56 +447,20 @@ def significant(cluster: FrontierCluster, frontier: Frontier, reached: Frontier,
     return None if view is None else cluster.served_from(view[1], view[0])
 
 
-def goal_look(snapshot: MapSnapshot, reachable: Reachable, at: np.ndarray, config: ExplorerConfig,
-              costmap: CostmapConfig) -> float:
-    """m² the look round from ``at`` (2,) that makes a frontier cluster significant shows on this
-    snapshot (``look`` on the ``look_map`` with its ``within_reach`` clearance), the same as on
-    the whole map, computed on the cells it reads alone: the laser's range round ``at``'s cell
-    and the clearance's reach beyond it, with the hits near them. For a kept goal at each
-    replan: on office_g the whole map's fields cost 12 ms a replan. The window's distance
-    fields are not cached (``distance_to_points``): they would push the map's own out."""
-    resolution = snapshot.resolution
-    h, w = snapshot.prob.shape
-    bound = config.robot_radius + costmap.margin
-    half = int(math.ceil(config.sensor_range / resolution)) + 1 + int(math.ceil(bound / resolution)) + 1
-    cx, cy = reachable.cell(at)
-    x0, x1 = min(max(cx - half, 0), w), max(min(cx + half + 1, w), 0)
-    y0, y1 = min(max(cy - half, 0), h), max(min(cy + half + 1, h), 0)
-    x1, y1 = max(x0, x1), max(y0, y1)
-    box = np.s_[y0:y1, x0:x1]
-    origin = np.asarray(snapshot.origin, float) + resolution * np.array([x0, y0])
-    hits = snapshot.hits
-    if hits is not None and len(hits):
-        far = origin + resolution * np.array([x1 - x0 - 1, y1 - y0 - 1])
-        hits = hits[np.all((hits >= origin - bound - resolution) & (hits <= far + bound + resolution), axis=1)]
-    window = dataclasses.replace(
-        snapshot, prob=snapshot.prob[box], origin=origin, hits=hits,
-        prob_occ=None if snapshot.prob_occ is None else snapshot.prob_occ[box],
-        traversable=None if snapshot.traversable is None else snapshot.traversable[box])
-    frontier = Frontier(np.zeros((y1 - y0, x1 - x0)), np.zeros((0, 2), int),
-                        evidence=look_map(window, costmap, config.robot_radius, cached=False),
-                        blocked=evidence(window) > costmap.occupied_above, hits=hits)
-    there = dataclasses.replace(reachable, origin=origin)
-    reached = within_reach(frontier, there, config.robot_radius, costmap, cached=False)
-    return look(reached, there, at, config, costmap)
-
-
-def within_reach(frontier: Frontier, reachable: Reachable, radius: float, costmap: CostmapConfig,
-                 cached: bool = True) -> Frontier:
+def within_reach(frontier: Frontier, reachable: Reachable, radius: float, costmap: CostmapConfig) -> Frontier:
     """``frontier`` with its ``clearance``: meters from each cell's centre to the nearest hit
     (without hits, to the nearest occupied cell's edge), all unknown space taken free (off the
-    map too), to ``radius`` + the costmap's margin and infinite beyond; 0 on occupied cells.
-    ``cached``: as ``distance_to_points``'s."""
+    map too), to ``radius`` + the costmap's margin and infinite beyond; 0 on occupied cells."""
     resolution, shape = reachable.resolution, frontier.blocked.shape
     if frontier.hits is not None and len(frontier.hits):
         clearance = distance_to_points(frontier.hits, reachable.origin, resolution, shape,
-                                       radius + costmap.margin, cached)
+                                       radius + costmap.margin)
     else:
         clearance = ndimage.distance_transform_edt(~frontier.blocked) * resolution - resolution / 2
     return dataclasses.replace(frontier, clearance=np.where(frontier.blocked, 0.0, clearance))
 
 
-def look_map(snapshot: MapSnapshot, costmap: CostmapConfig, radius: float, cached: bool = True) -> np.ndarray:
+def look_map(snapshot: MapSnapshot, costmap: CostmapConfig, radius: float) -> np.ndarray:
     """(h, w) the map a look round (``look``) sees through: the evidence grid, and occupied at
     its unknown cells where the obstacle GP predicts an obstacle (Λo), as at the unseen face
     of a block whose other faces were seen: behind such a face lies the block's inside, not
@@ -505,8 +469,7 @@ def look_map(snapshot: MapSnapshot, costmap: CostmapConfig, radius: float, cache
     are occupied instead, a face running on past its hits over the gaps a laser leaves in it
     at grazing angles, narrower than the robot, where a door's middle stays open (lab_c's grid
     run drove 40 m to gaps between sparse hits on the faces of thick walls, whose looks showed
-    1.2-5.8 m² of the walls' insides and the outside, and 0.01-0.14 m² so closed).
-    ``cached``: as ``distance_to_points``'s."""
+    1.2-5.8 m² of the walls' insides and the outside, and 0.01-0.14 m² so closed)."""
     seen = evidence(snapshot)
     if snapshot.prob_occ is not None:
         return np.where((snapshot.prob_occ > costmap.occupied_above) & (np.abs(seen - 0.5) <= KNOWN),
@@ -514,7 +477,7 @@ def look_map(snapshot: MapSnapshot, costmap: CostmapConfig, radius: float, cache
     if snapshot.hits is None or not len(snapshot.hits):
         return seen
     near = np.isfinite(distance_to_points(snapshot.hits, snapshot.origin, snapshot.resolution, seen.shape,
-                                          radius, cached))
+                                          radius))
     return np.where(near & (np.abs(seen - 0.5) <= KNOWN), 1.0, seen)
 
 
