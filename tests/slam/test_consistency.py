@@ -24,8 +24,8 @@ def two_passes(shift: gtsam.Pose2, walls=ROOM):
 
 
 def test_a_pass_believed_off_across_the_walls_lies_that_far_from_the_first():
-    # 7 cm across the corridor: every point seen again lies 7 cm off the walls along x, and the
-    # ends' points (walls along y) lie on their wall, read along its normal
+    # 7 cm across the corridor: every point seen again lies 7 cm off the other pass's walls,
+    # read along their normal
     believed, scans, driven = two_passes(gtsam.Pose2(0.0, 0.07, 0.0), CORRIDOR)
     d = revisit_distances(believed, scans, driven=driven)
     seen = d[np.isfinite(d)]
