@@ -22,7 +22,7 @@ from scipy.spatial import cKDTree
 
 from slam.config import RegistrationConfig
 from slam.poses import pose_array
-from slam.registration import scan_normals
+from slam.registration import scan_normals, transform
 
 #: nearest neighbours asked for at first; a point whose neighbours within the radius are all too
 #: near in travel asks for this many times more, until one is far enough or none is left
@@ -48,10 +48,8 @@ def revisit_distances(poses: Sequence[gtsam.Pose2], scans: Sequence[np.ndarray],
     world, normal, at = [], [], []
     for pose, points, metres in zip(poses, scans, driven, strict=True):
         laser = pose.compose(mount)
-        c, s = np.cos(laser.theta()), np.sin(laser.theta())
-        rotation = np.array([[c, s], [-s, c]])
-        world.append(points @ rotation + [laser.x(), laser.y()])
-        normal.append(scan_normals(points, config) @ rotation)
+        world.append(transform(laser, points))
+        normal.append(transform(gtsam.Pose2(0.0, 0.0, laser.theta()), scan_normals(points, config)))
         at.append(np.full(len(points), metres))
     world, normal, at = np.concatenate(world), np.concatenate(normal), np.concatenate(at)
     n = len(world)
