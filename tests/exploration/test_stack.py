@@ -15,6 +15,7 @@ from mapping.config import COMConfig
 from mapping.logodds import LogOddsGrid
 from sim.lidar import Lidar, LidarConfig
 from sim.world import World
+from sim.worlds import BUILTIN_WORLDS
 from slam.localiser import Localisation
 
 # A short run: the drift threshold lowered from 0.2 as in tests/mapping/test_com.py. Over the
@@ -29,10 +30,7 @@ GRID_CONFIG = StackConfig(**GIVEN, explorer=ExplorerConfig(method="grid"))
 
 def room_world() -> World:
     """10 m x 8 m room (walls 0.5 m) with a 2 m x 1.5 m box in the middle."""
-    occ = np.ones((160, 200), bool)
-    occ[10:150, 10:190] = False
-    occ[65:95, 80:120] = True
-    return World(occ, (0.05, 0.05), name="room")
+    return BUILTIN_WORLDS["room"]().world
 
 
 def tour() -> list[gtsam.Pose2]:

@@ -5,6 +5,7 @@ import numpy as np
 
 from sim.lidar import Lidar
 from sim.world import World
+from sim.worlds import BUILTIN_WORLDS
 
 
 def corridor_world() -> World:
@@ -16,12 +17,9 @@ def corridor_world() -> World:
 
 
 def room_world() -> World:
-    """10 m x 8 m room (walls 0.5 m) with a 2 m x 1.5 m box in the middle."""
-    res = 0.05
-    occ = np.ones((160, 200), bool)
-    occ[10:150, 10:190] = False
-    occ[65:95, 80:120] = True
-    return World(occ, (res, res), name="room")
+    """10 m x 8 m room (walls 0.5 m) with a 2 m x 1.5 m box in the middle (the built-in
+    ``room``)."""
+    return BUILTIN_WORLDS["room"]().world
 
 
 def scans_at(world: World, poses: list[gtsam.Pose2], seed: int = 0):
