@@ -239,13 +239,13 @@ class Registration:
                 gradient = gradient + prior_info @ prior[0].localCoordinates(pose)
             step = -np.linalg.solve(hessian + prior_info + 1e-9 * np.eye(3), gradient)
             if prior is None:
-                weak = _degenerate_directions(jac, c.degenerate_eigenvalue)
+                weak = degenerate_directions(jac[:, :2], c.degenerate_eigenvalue)
                 step -= weak.T @ (weak @ step)
             pose = pose.retract(step)
             if np.abs(step).max() < c.convergence:
                 break
         if hessian.any():
-            degenerate = _degenerate_directions(jac, c.degenerate_eigenvalue)
+            degenerate = degenerate_directions(jac[:, :2], c.degenerate_eigenvalue)
         else:
             degenerate = np.eye(3)[:2]
         if prior is None and len(degenerate):
@@ -259,10 +259,9 @@ class Registration:
         return self.refine(points, submap, self.coarse_to_fine(points, submap, guess, start_level), prior)
 
 
-def _degenerate_directions(jac: np.ndarray, threshold: float) -> np.ndarray:
-    """(k, 3) translation directions whose normalised information Σ nnᵀ / N is below ``threshold``."""
-    n = jac[:, :2]
-    info = n.T @ n / len(n)
-    values, vectors = np.linalg.eigh(info)
+def degenerate_directions(normals: np.ndarray, threshold: float) -> np.ndarray:
+    """(k, 3) translation directions whose normalised information Σ nnᵀ / N over the (N, 2)
+    unit ``normals`` is below ``threshold``."""
+    values, vectors = np.linalg.eigh(normals.T @ normals / len(normals))
     weak = vectors[:, values < threshold].T
     return np.column_stack([weak, np.zeros(len(weak))])
