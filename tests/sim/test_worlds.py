@@ -21,6 +21,13 @@ def test_generation_is_deterministic(builtin):
 def test_sizes():
     assert BUILTIN_WORLDS["cave"]().world.size == pytest.approx((20.0, 20.0))
     assert BUILTIN_WORLDS["office"]().world.size == pytest.approx((40.0, 30.0))
+    assert BUILTIN_WORLDS["room"]().world.size == pytest.approx((10.0, 8.0))
+
+
+def test_room_is_the_same_turned_by_half_a_turn():
+    occupied = BUILTIN_WORLDS["room"]().world.occupied
+    np.testing.assert_array_equal(occupied, np.rot90(occupied, 2))
+    assert 0.02 < occupied[20:-20, 20:-20].mean() < 0.1      # the box, 1 m in from the walls
 
 
 def test_boundary_is_closed(builtin):
