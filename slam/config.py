@@ -3,6 +3,8 @@ the MIT CSAIL log and on the simulator's 8 m / 180° Stage-like laser."""
 
 from __future__ import annotations
 
+import math
+
 import gtsam
 from pydantic import BaseModel, ConfigDict, Field, FiniteFloat, PositiveFloat
 
@@ -153,7 +155,12 @@ class LoopClosureConfig(_Config):
     mahalanobis_gate: float = Field(16.27, gt=0, description="χ²(3) gate (0.999) against the graph's prediction:"
                                                               " a loop beyond it, or one the correlative search"
                                                               " found, needs a consistent partner")
-    mahalanobis_reject: float = Field(200.0, gt=0, description="beyond this a verified loop is rejected outright")
+    mahalanobis_reject: float = Field(
+        math.inf, gt=0, description="beyond this a verified loop is rejected outright; by default none "
+        "is: beyond mahalanobis_gate a loop waits for a consistent partner, however far from the "
+        "graph's prediction. True loops that contradict a false one are far from the bent graph's "
+        "prediction (lab_f_scan: 17 loops at d² 490-1310, all within 1 cm of the truth; at 200 they "
+        "were turned away, and the false loop held the map 2.2 m off)")
     pair_window: int = Field(15, ge=1, description="keyframes a loop waits for a consistent partner")
     pair_translation: float = Field(0.1, gt=0, description="m: pairwise consistency tolerance")
     pair_rotation_deg: float = Field(2.0, gt=0, description="deg: pairwise consistency tolerance")

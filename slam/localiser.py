@@ -33,6 +33,9 @@ class Localisation:
         moved: largest keyframe displacement (m) caused by those loops.
         corrected: True when earlier keyframes moved more than the localiser's threshold: maps
             built from them may have drifted.
+        withdrawn: loop closures accepted earlier and taken back out of the graph at this scan
+            (a consistency check found them false): the corrections they made are undone, and
+            a map relearnt under them is wrong wherever the robot is not.
     """
 
     pose: gtsam.Pose2
@@ -40,6 +43,7 @@ class Localisation:
     loops: list = field(default_factory=list)
     moved: float = 0.0
     corrected: bool = False
+    withdrawn: int = 0
 
 
 class Localiser(Protocol):

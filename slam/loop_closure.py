@@ -170,9 +170,15 @@ class LoopClosureDetector:
         from 0.02 to 0.2 m ATE). The scan's own normals say what it observes, wherever it
         is placed."""
         reg = self.registration.config
-        dist, _ = submap.tree.query(transform(match.pose, points), distance_upper_bound=reg.inlier_distance)
-        own = normals[np.isfinite(dist) & np.isfinite(normals[:, 0])]
-        return len(own) >= reg.min_points and not len(degenerate_directions(own, reg.degenerate_eigenvalue))
+        dist, nearest = submap.tree.query(transform(match.pose, points), distance_upper_bound=reg.inlier_distance)
+        inlier, has = np.isfinite(dist), np.isfinite(normals[:, 0])
+        # a point its own neighbours leave without a normal (a corner, a wall's end) observes
+        # what the surface it lies on does: the submap's normal there, turned into the scan
+        surface = submap.normals[nearest[inlier & ~has]] @ np.array(
+            [[np.cos(match.pose.theta()), -np.sin(match.pose.theta())],
+             [np.sin(match.pose.theta()), np.cos(match.pose.theta())]])
+        observed = np.vstack([normals[inlier & has], surface[np.isfinite(surface[:, 0])]])
+        return len(observed) >= reg.min_points and not len(degenerate_directions(observed, reg.degenerate_eigenvalue))
 
     def _same_place(self, a: gtsam.Pose2, b: gtsam.Pose2) -> bool:
         """Are two poses one within the symmetry tolerances?"""

@@ -153,7 +153,7 @@ class PoseSlam:
                 self.largest_correction = max(self.largest_correction, moved)
         if result.loops:
             self._check_consistency(result)
-        if result.loops:
+        if result.loops or result.withdrawn:
             result.pose = self.pose(len(self.scan_anchor) - 1)
             result.corrected = result.moved > c.moved_threshold
 
@@ -161,7 +161,8 @@ class PoseSlam:
         """The consistency layer over every accepted loop: when a loop disagrees with the map
         after optimisation (its residual beyond the χ²(3) quantile at ``consistency_probability``),
         graduated non-convexity over all loops decides which are outliers; they leave the graph
-        (counted as rejected by "consistency"), so a false loop cannot hold the map bent."""
+        (counted as rejected by "consistency"), so a false loop cannot hold the map bent. Those
+        accepted at earlier scans are ``withdrawn``: a map relearnt under them must be relearnt."""
         c = self.config.loop_closure
         residuals = self.graph.loop_residuals()
         if residuals.size == 0 or residuals.max() <= chi2.ppf(c.consistency_probability, 3):
@@ -175,6 +176,7 @@ class PoseSlam:
         out = {loop_edges.index(k) for k in outliers}
         dropped = {id(loop) for m, loop in enumerate(self.loops) if m in out}
         self.loops = [loop for m, loop in enumerate(self.loops) if m not in out]
+        result.withdrawn += len(dropped - {id(loop) for loop in result.loops})
         result.loops = [loop for loop in result.loops if id(loop) not in dropped]
         self.detector.rejected["consistency"] += len(outliers)
         moved = float(np.max(np.linalg.norm(self.graph.positions() - before, axis=1)))

@@ -11,13 +11,13 @@ while every wrong answer here (the graph's prediction, the twin room) is ≥ 0.1
 
 import math
 from dataclasses import replace
-from types import SimpleNamespace
 
 import gtsam
 import numpy as np
 
 from slam.back_end import PoseGraph
-from slam.config import LoopClosureConfig, RegistrationConfig
+from slam.config import LoopClosureConfig, RegistrationConfig, SlamConfig
+from slam.localiser import Localisation
 from slam.loop_closure import Candidate, LoopClosureDetector
 from slam.pose_slam import PoseSlam
 from slam.registration import scan_normals
@@ -100,9 +100,9 @@ def relative_covariance(sigma, believed, j, k):
     return cov
 
 
-def step_result(pose: gtsam.Pose2, keyframe: int) -> SimpleNamespace:
-    """What ``PoseSlam._close_loops`` fills in for one keyframe (the fields of its step result)."""
-    return SimpleNamespace(pose=pose, keyframe=keyframe, loops=[], moved=0.0, corrected=False)
+def step_result(pose: gtsam.Pose2, keyframe: int) -> Localisation:
+    """What ``PoseSlam._close_loops`` fills in for one keyframe."""
+    return Localisation(pose, keyframe)
 
 
 def off(a: gtsam.Pose2, b: gtsam.Pose2) -> tuple[float, float]:
@@ -290,13 +290,15 @@ def test_a_loop_the_correlative_search_found_waits_for_a_consistent_partner(monk
 
 def test_mahalanobis_gate_rejects_a_loop_the_graph_contradicts():
     # a confident graph (σ 1 cm, 0.11° per link) that drifted 1.2 m and 12°: the loop is verified
-    # (the scene is right) but lies far outside the graph's prediction
+    # (the scene is right) but lies far outside the graph's prediction. Beyond an outright
+    # rejection threshold it is turned away; by default none is set, and it waits for a
+    # consistent partner like any loop beyond the gate
     sigma = np.array([0.01, 0.01, 0.002])
     drift = gtsam.Pose2(1.0, -0.6, math.radians(12.0))
     truth, graph, features, n = revisit(drift, sigma, keyframes=FACING_DOOR + 1)
     k = n + FACING_DOOR
     believed = graph.poses()
-    config = LoopClosureConfig()
+    config = LoopClosureConfig(mahalanobis_reject=200.0)
     detector = LoopClosureDetector(config)
     candidates = detector.candidates(graph, k)
     assert candidates
@@ -310,13 +312,17 @@ def test_mahalanobis_gate_rejects_a_loop_the_graph_contradicts():
         d2 = float(e @ np.linalg.inv(predicted_cov + loop.match.covariance) @ e)
         assert math.isclose(loop.mahalanobis, d2, rel_tol=1e-6)
         assert d2 > config.mahalanobis_reject
-    slam = PoseSlam()
-    slam.graph, slam._features = graph, features
-    slam._close_loops(k, step_result(graph.pose(k), k))
-    assert slam.loops == [] and slam._pending == []
-    assert slam.detector.rejected["mahalanobis"] == len(candidates)
-    assert not any(is_loop for *_, is_loop in graph.edges)
-    assert all(p.equals(q, 0.0) for p, q in zip(graph.poses(), believed))
+    for rejecting in (True, False):
+        slam = PoseSlam(SlamConfig(loop_closure=config if rejecting else LoopClosureConfig()))
+        slam.graph, slam._features = graph, features
+        slam._close_loops(k, step_result(graph.pose(k), k))
+        assert slam.loops == []
+        if rejecting:
+            assert slam._pending == [] and slam.detector.rejected["mahalanobis"] == len(candidates)
+        else:
+            assert len(slam._pending) == len(candidates) and slam.detector.rejected["pending"] == len(candidates)
+        assert not any(is_loop for *_, is_loop in graph.edges)
+        assert all(p.equals(q, 0.0) for p, q in zip(graph.poses(), believed))
 
 
 def test_a_loop_beyond_the_gate_waits_for_a_consistent_partner():
