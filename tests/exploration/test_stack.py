@@ -64,11 +64,12 @@ class ScriptedLocaliser:
     estimated at ``error`` composed with their true pose, until scan ``correct_at``, where a
     loop closure moves every estimate back to the truth (``corrected``). ``pose(i)`` is the
     current estimate of scan i, so it changes at the correction. With ``corrected=False``
-    the loop is closed without moving anything."""
+    the loop is closed without moving anything; ``withdrawn`` loops taken back out there."""
 
     def __init__(self, truth, error: gtsam.Pose2, correct_at: int = CORRECTION,
-                 corrected: bool = True):
+                 corrected: bool = True, withdrawn: int = 0):
         self.truth, self.error, self.correct_at, self.corrected = truth, error, correct_at, corrected
+        self.withdrawn = withdrawn
         self.keyframe_scans = []
         self.localised_at: list[gtsam.Pose2] = []     # each scan's pose when it was localised
         self._poses: list[gtsam.Pose2] = []
@@ -84,7 +85,7 @@ class ScriptedLocaliser:
             moved = max(np.hypot(*(a.translation() - b.translation()))
                         for a, b in zip(self._poses, before))
             here = Localisation(self._poses[i], i, loops=[(0, i)], moved=float(moved),
-                                corrected=self.corrected)
+                                corrected=self.corrected, withdrawn=self.withdrawn)
         else:
             here = Localisation(self._poses[i], i)
         self.localised_at.append(here.pose)
@@ -162,6 +163,17 @@ def test_small_correction_leaves_the_com_alone(scans, truth_com):
     np.testing.assert_array_equal(stack.map.prob(), online.prob())
     truth = truth_com
     assert not same(stack.map.prob(), truth.prob())
+
+
+def test_a_correction_that_withdraws_a_loop_regenerates_the_com_without_drift(scans, truth_com):
+    # the same 1 cm correction, but taking a false loop back out: the map may have been relearnt
+    # under it wherever the robot is not, and the drift check reads only where it maps
+    stack = Stack(StackConfig(**GIVEN, com=COM), planning=False)
+    stack.localiser = ScriptedLocaliser(TRUTH, gtsam.Pose2(0.01, 0.0, 0.0), withdrawn=1)
+    steps = run(stack, scans)
+    assert [s.regenerated for s in steps] == [False] * CORRECTION + [True]
+    assert stack.regenerations == 1
+    np.testing.assert_array_equal(stack.map.prob(), truth_com.prob())
 
 
 @pytest.mark.parametrize("error", [gtsam.Pose2(0.4, 0.0, math.radians(3)), gtsam.Pose2(0.01, 0.0, 0.0)],

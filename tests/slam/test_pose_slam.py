@@ -1,5 +1,6 @@
 """Pose SLAM where information is missing: links that nothing observes, a solver that finds its
-system indeterminate, loop candidates without points, a log without odometry or stamps."""
+system indeterminate, loop candidates without points, a log without odometry or stamps; and
+false loops taken back out of the graph."""
 
 import math
 
@@ -10,6 +11,7 @@ import pytest
 from slam.back_end import PoseGraph
 from slam.config import RegistrationConfig, SlamConfig
 from slam.front_end import ScanOdometry
+from slam.localiser import Localisation
 from slam.loop_closure import Candidate, LoopClosureDetector
 from slam.pose_slam import PoseSlam
 from slam.registration import Match, scan_normals
@@ -190,6 +192,36 @@ def test_graduated_non_convexity_takes_a_false_loop_out():
     assert len([e for e in graph.edges if e[4]]) == 1
     for k in range(12):
         assert graph.pose(k).equals(reference[k], 1e-3)
+
+
+def test_a_false_loop_taken_out_after_a_later_true_one_is_withdrawn():
+    """The square above with its false loop accepted at an earlier scan, and the true loop
+    closing it now: the consistency layer takes the false one out, and the step reports it
+    withdrawn (a map relearnt under it must be relearnt), and the graph is back from where the
+    false loop bent it; a false loop of the step itself, taken out at once, corrected nothing
+    before this step and is not withdrawn."""
+    step = gtsam.Pose2(1.0, 0.0, math.pi / 6)
+    truth = [gtsam.Pose2()]
+    for _ in range(11):
+        truth.append(truth[-1].compose(step))
+    loop_cov = np.diag([0.02, 0.02, 0.005]) ** 2
+    false = truth[2].between(truth[8]).compose(gtsam.Pose2(1.0, 0.0, math.radians(10)))
+    for earlier in (True, False):
+        slam = PoseSlam()
+        slam.graph.add_first(truth[0])
+        for i in range(1, 12):
+            slam.graph.add_keyframe(step.compose(gtsam.Pose2(0.01, 0.0, 0.002)), LINK * 4)
+        slam.graph.add_loop(2, 8, false, loop_cov, 3.0, 4)
+        bent = slam.graph.positions()
+        slam.graph.add_loop(0, 11, truth[0].between(truth[11]), loop_cov, 3.0, 4)
+        wrong, right = object(), object()
+        slam.loops = [wrong, right]
+        result = Localisation(slam.graph.pose(11), 11, loops=[right] if earlier else [wrong, right])
+        slam._check_consistency(result)
+        assert slam.loops == [right] and result.loops == [right]
+        assert slam.detector.rejected == {"consistency": 1}
+        assert result.withdrawn == (1 if earlier else 0)
+        assert np.abs(slam.graph.positions() - bent).max() > 0.3
 
 
 def test_a_retried_match_the_wheels_rule_out_must_explain_far_more():
