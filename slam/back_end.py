@@ -129,6 +129,16 @@ class PoseGraph:
                 out.append(float(e @ np.linalg.solve(covariance, e)))
         return np.array(out)
 
+    def chained(self, i: int, j: int) -> tuple[gtsam.Pose2, np.ndarray]:
+        """Pose j in frame i (i < j) from the keyframe links alone, no loop closure, and its
+        (3, 3) covariance, propagated link by link (T ← T·z, Σ ← Ad(z⁻¹) Σ Ad(z⁻¹)ᵀ + Σ_z)."""
+        links = [(z, covariance) for a, _, z, covariance, loop in self.edges if not loop and i <= a < j]
+        pose, sigma = gtsam.Pose2(), np.zeros((3, 3))
+        for z, covariance in links:
+            adjoint = z.inverse().AdjointMap()
+            pose, sigma = pose.compose(z), adjoint @ sigma @ adjoint.T + covariance
+        return pose, sigma
+
     def outlier_loops(self, probability: float) -> list[int]:
         """Indices into ``edges`` of the loop closures that graduated non-convexity rejects (Yang
         et al. 2020: a truncated least-squares loss reached from its convex surrogate, its inlier

@@ -128,7 +128,7 @@ class PoseSlam:
             if loop is None:
                 continue
             self.loop_counts["verified"] += 1
-            if loop.mahalanobis > c.mahalanobis_reject:
+            if loop.mahalanobis > c.mahalanobis_reject and not self._fits_the_links(loop):
                 self.detector.rejected["mahalanobis"] += 1
                 continue
             if loop.mahalanobis <= c.mahalanobis_gate and not loop.searched:
@@ -156,6 +156,19 @@ class PoseSlam:
         if result.loops or result.withdrawn:
             result.pose = self.pose(len(self.scan_anchor) - 1)
             result.corrected = result.moved > c.moved_threshold
+
+    def _fits_the_links(self, loop: LoopClosure) -> bool:
+        """Is ``loop`` within ``mahalanobis_gate`` of what the keyframe links alone, without any
+        loop closure, predict between its keyframes? A loop far beyond the graph's prediction
+        (``mahalanobis_reject``) is either one a false loop put there, by bending the graph
+        (lab_f_scan: true loops at d² 490-1310, within 1 cm of the truth and of what the links
+        say), or an alias: periodic aliases along a corridor come in consistent pairs (office_a:
+        loops 2.3 m along its top corridor, d² 169-191 against the links)."""
+        j, k = loop.candidate.j, loop.candidate.k
+        predicted, covariance = self.graph.chained(j, k)
+        error = predicted.localCoordinates(loop.match.pose)
+        d2 = float(error @ np.linalg.solve(covariance + loop.match.covariance, error))
+        return d2 <= self.config.loop_closure.mahalanobis_gate
 
     def _check_consistency(self, result: Localisation) -> None:
         """The consistency layer over every accepted loop: when a loop disagrees with the map

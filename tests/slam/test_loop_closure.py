@@ -290,15 +290,15 @@ def test_a_loop_the_correlative_search_found_waits_for_a_consistent_partner(monk
 
 def test_mahalanobis_gate_rejects_a_loop_the_graph_contradicts():
     # a confident graph (σ 1 cm, 0.11° per link) that drifted 1.2 m and 12°: the loop is verified
-    # (the scene is right) but lies far outside the graph's prediction. Beyond an outright
-    # rejection threshold it is turned away; by default none is set, and it waits for a
-    # consistent partner like any loop beyond the gate
+    # (the scene is right) but lies far outside the graph's prediction, and the links alone (the
+    # graph has no loop) predict it no better. Beyond the outright rejection threshold it is
+    # turned away; with none set, it waits for a consistent partner like any loop beyond the gate
     sigma = np.array([0.01, 0.01, 0.002])
     drift = gtsam.Pose2(1.0, -0.6, math.radians(12.0))
     truth, graph, features, n = revisit(drift, sigma, keyframes=FACING_DOOR + 1)
     k = n + FACING_DOOR
     believed = graph.poses()
-    config = LoopClosureConfig(mahalanobis_reject=200.0)
+    config = LoopClosureConfig()
     detector = LoopClosureDetector(config)
     candidates = detector.candidates(graph, k)
     assert candidates
@@ -313,7 +313,8 @@ def test_mahalanobis_gate_rejects_a_loop_the_graph_contradicts():
         assert math.isclose(loop.mahalanobis, d2, rel_tol=1e-6)
         assert d2 > config.mahalanobis_reject
     for rejecting in (True, False):
-        slam = PoseSlam(SlamConfig(loop_closure=config if rejecting else LoopClosureConfig()))
+        slam = PoseSlam(SlamConfig(loop_closure=config if rejecting else
+                                   LoopClosureConfig(mahalanobis_reject=math.inf)))
         slam.graph, slam._features = graph, features
         slam._close_loops(k, step_result(graph.pose(k), k))
         assert slam.loops == []

@@ -12,7 +12,7 @@ from slam.back_end import PoseGraph
 from slam.config import RegistrationConfig, SlamConfig
 from slam.front_end import ScanOdometry
 from slam.localiser import Localisation
-from slam.loop_closure import Candidate, LoopClosureDetector
+from slam.loop_closure import Candidate, LoopClosure, LoopClosureDetector
 from slam.pose_slam import PoseSlam
 from slam.registration import Match, scan_normals
 from wall_scans import cast
@@ -222,6 +222,57 @@ def test_a_false_loop_taken_out_after_a_later_true_one_is_withdrawn():
         assert slam.detector.rejected == {"consistency": 1}
         assert result.withdrawn == (1 if earlier else 0)
         assert np.abs(slam.graph.positions() - bent).max() > 0.3
+
+
+def test_chained_links_match_the_graph_s_own_relative_marginal_without_loops():
+    """Without loop closures the graph's joint marginal (iSAM2) and the links composed one by
+    one with the adjoint (``PoseGraph.chained``) are two computations of the same Gaussian."""
+    graph = PoseGraph()
+    graph.add_first(gtsam.Pose2())
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        graph.add_keyframe(gtsam.Pose2(0.4, rng.normal(0, 0.05), rng.normal(0.1, 0.2)), LINK * rng.uniform(1, 4))
+    for i, j in ((0, 20), (3, 17), (9, 10)):
+        chained, sigma = graph.chained(i, j)
+        predicted, covariance = graph.relative(i, j)
+        assert chained.equals(predicted, 1e-9)
+        np.testing.assert_allclose(sigma, covariance, rtol=1e-6, atol=1e-12)
+
+
+def test_a_loop_far_from_a_bent_graph_is_kept_when_the_links_agree_with_it():
+    """A lap of 30 keyframes whose links leave 7 cm a link along the way (a corridor), closed by
+    a false loop 1.2 m along it that got in (with a partner, as corridor aliases do): the graph
+    bends to it. The true loop then lies beyond mahalanobis_reject from the bent graph's
+    prediction but agrees with the links alone: it waits for a consistent partner, which would
+    let the consistency layer take the false loop out (lab_f_scan). The true loop slid 2.3 m,
+    as periodic aliases along a corridor are, agrees with neither and is turned away
+    (office_a)."""
+    n = 30
+    step = gtsam.Pose2(1.0, 0.0, 2 * math.pi / n)
+    loop_cov = np.diag([0.02, 0.02, 0.005]) ** 2
+    true = gtsam.Pose2()
+    for _ in range(n):
+        true = true.compose(step)
+    slam = PoseSlam()
+    slam.graph.add_first(gtsam.Pose2())
+    for _ in range(n):
+        slam.graph.add_keyframe(step, np.diag([0.07, 0.01, 0.002]) ** 2)
+    slam.graph.add_loop(0, n, true.compose(gtsam.Pose2(1.2, 0.0, 0.0)), loop_cov, 3.0, 4)
+    predicted, covariance = slam.graph.relative(0, n)
+    candidate = Candidate(0, n, predicted, covariance, 1.0, 5.0)
+    loops = []
+    for z in (true, true.compose(gtsam.Pose2(2.3, 0.0, 0.0))):
+        match = Match(z, np.linalg.inv(loop_cov), 0.9, np.zeros((0, 3)), 0.01)
+        error = predicted.localCoordinates(z)
+        loops.append(LoopClosure(candidate, match, float(error @ np.linalg.solve(covariance + match.covariance, error))))
+    assert all(loop.mahalanobis > slam.config.loop_closure.mahalanobis_reject for loop in loops)
+    assert slam._fits_the_links(loops[0]) and not slam._fits_the_links(loops[1])
+    slam.detector.candidates = lambda graph, k: [candidate, candidate]
+    verified = iter(loops)
+    slam.detector.verify = lambda candidate, graph, scans: next(verified)
+    slam._close_loops(n, Localisation(slam.graph.pose(n), n))
+    assert slam._pending == [loops[0]] and len(slam.loops) == 0
+    assert slam.detector.rejected == {"pending": 1, "mahalanobis": 1}
 
 
 def test_a_retried_match_the_wheels_rule_out_must_explain_far_more():
