@@ -12,7 +12,7 @@ from __future__ import annotations
 import gtsam
 import numpy as np
 
-from slam.loop_closure import Candidate, LoopClosure
+from slam.loop_closure import Candidate, LoopClosure, mahalanobis
 from slam.pose_slam import PoseSlam
 from slam.registration import Match
 
@@ -40,9 +40,8 @@ def inject_false_loops(slam: PoseSlam, rate: float, seed: int = 0, min_gap: int 
                              np.radians(rng.uniform(3.0, 10.0) * rng.choice([-1, 1])))
         information = np.diag(1.0 / np.square([0.02, 0.02, np.radians(0.3)]))
         match = Match(predicted.compose(offset), information, 0.9, np.zeros((0, 3)), 0.01)
-        error = predicted.localCoordinates(match.pose)
-        d2 = float(error @ np.linalg.solve(covariance + match.covariance, error))
-        false = LoopClosure(Candidate(j, k, predicted, covariance, 1.0, 10.0), match, d2)
+        false = LoopClosure(Candidate(j, k, predicted, covariance, 1.0, 10.0), match,
+                            mahalanobis(predicted, covariance, match))
         injected.append(false)
         return false
 

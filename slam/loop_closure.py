@@ -62,6 +62,13 @@ def information_gain(covariance: np.ndarray, measurement_covariance: np.ndarray)
     return 0.5 * (a - b)
 
 
+def mahalanobis(predicted: gtsam.Pose2, covariance: np.ndarray, match: Match) -> float:
+    """Squared Mahalanobis distance of ``match``'s relative pose from ``predicted`` (3, 3)
+    ``covariance``, the match's own covariance added."""
+    error = predicted.localCoordinates(match.pose)
+    return float(error @ np.linalg.solve(covariance + match.covariance, error))
+
+
 class LoopClosureDetector:
     """Finds and verifies loop closures for a new keyframe against earlier ones."""
 
@@ -156,8 +163,7 @@ class LoopClosureDetector:
         if not self._symmetric(best, j, k, graph, scans):
             self.rejected["asymmetric"] += 1
             return None
-        error = candidate.predicted.localCoordinates(best.pose)
-        d2 = float(error @ np.linalg.solve(candidate.covariance + best.covariance, error))
+        d2 = mahalanobis(candidate.predicted, candidate.covariance, best)
         return LoopClosure(candidate, best, d2, searched)
 
     def _observes(self, match: Match, points: np.ndarray, normals: np.ndarray, submap: Submap) -> bool:

@@ -14,7 +14,7 @@ from slam.config import SlamConfig
 from slam.front_end import ScanOdometry
 from slam.g2o import write_g2o
 from slam.localiser import Localisation
-from slam.loop_closure import LoopClosure, LoopClosureDetector
+from slam.loop_closure import LoopClosure, LoopClosureDetector, mahalanobis
 from slam.registration import scan_normals, transform
 from slam.scan import LaserScan
 
@@ -164,11 +164,8 @@ class PoseSlam:
         (lab_f_scan: true loops at d² 490-1310, within 1 cm of the truth and of what the links
         say), or an alias: periodic aliases along a corridor come in consistent pairs (office_a:
         loops 2.3 m along its top corridor, d² 169-191 against the links)."""
-        j, k = loop.candidate.j, loop.candidate.k
-        predicted, covariance = self.graph.chained(j, k)
-        error = predicted.localCoordinates(loop.match.pose)
-        d2 = float(error @ np.linalg.solve(covariance + loop.match.covariance, error))
-        return d2 <= self.config.loop_closure.mahalanobis_gate
+        predicted, covariance = self.graph.chained(loop.candidate.j, loop.candidate.k)
+        return mahalanobis(predicted, covariance, loop.match) <= self.config.loop_closure.mahalanobis_gate
 
     def _check_consistency(self, result: Localisation) -> None:
         """The consistency layer over every accepted loop: when a loop disagrees with the map
