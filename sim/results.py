@@ -116,8 +116,9 @@ CURVE_COLUMNS = ("step", "time_s", "travel_m", "coverage", "entropy_nats")
 
 
 def write_episode(out: str | Path, result: EpisodeResult, progress: bool = False) -> None:
-    """metrics.json, config.toml (the run's configuration), curve.csv, trajectory.tum,
-    ground_truth.tum, graph.g2o (Pose SLAM), com.npz (a COM), map.pgm + map.yaml and figures/ (with the
+    """metrics.json, config.toml (the run's configuration), curve.csv, trajectory.tum (the pose
+    at each step as the robot then knew it), trajectory_final.tum (every step's pose after the
+    run's last correction), ground_truth.tum, graph.g2o (Pose SLAM), com.npz (a COM), map.pgm + map.yaml and figures/ (with the
     animation when frames were recorded, its rendering with a progress bar when ``progress``) in ``out``; metrics.json, with the start's area
     (``start_metrics``), is written last, so a folder that has it holds a finished run."""
     out = Path(out)
@@ -126,6 +127,7 @@ def write_episode(out: str | Path, result: EpisodeResult, progress: bool = False
         write_config(out / CONFIG_NAME, result.config)
     write_curve(out / "curve.csv", result)
     write_tum(out / "trajectory.tum", result.stamps, result.estimate)
+    write_tum(out / "trajectory_final.tum", result.stamps, stack.localiser.trajectory())
     write_tum(out / "ground_truth.tum", result.stamps, result.truth)
     if isinstance(stack.localiser, PoseSlam):
         stack.localiser.write_g2o(out / "graph.g2o")
