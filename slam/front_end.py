@@ -14,7 +14,7 @@ from scipy.stats import chi2
 from slam.config import FrontEndConfig
 from slam.correlative import CorrelativeGrid
 from slam.correlative import match as correlative_match
-from slam.registration import Match, Registration, Submap, explains_far_more, observes_every_direction, scan_normals
+from slam.registration import Match, Registration, Submap, explains_far_more, transform
 
 
 @dataclass
@@ -72,10 +72,8 @@ class ScanOdometry:
         sigma_r = o.rotation_fraction * abs(delta.theta()) + o.rotation_per_meter * t + o.rotation_floor
         return np.diag([sigma_t**2, sigma_t**2, sigma_r**2])
 
-    def track(self, points: np.ndarray, wheel: gtsam.Pose2 | None, normals: np.ndarray | None = None) -> Tracked:
-        """Register one scan's (m, 2) beam-ordered hit points; ``wheel`` is the raw odometry pose,
-        ``normals`` the points' (m, 2) ``scan_normals`` (computed from sensor-frame points when
-        not given)."""
+    def track(self, points: np.ndarray, wheel: gtsam.Pose2 | None) -> Tracked:
+        """Register one scan's (m, 2) sensor-frame hit points; ``wheel`` is the raw odometry pose."""
         wheels = wheel is not None and self._last_wheel is not None
         delta = self._last_wheel.between(wheel) if wheels else self._last_delta   # else constant velocity
         if self.pose is None:
@@ -86,9 +84,7 @@ class ScanOdometry:
         wheel_information = np.linalg.inv(self.odometry_covariance(delta)) if wheels else np.zeros((3, 3))
         match = None
         if self._submap is not None and len(points) >= self.config.registration.min_points:
-            if normals is None:
-                normals = scan_normals(points, self.config.registration)
-            match = self._register(points, normals, guess, (guess, wheel_information) if wheels else None, delta)
+            match = self._register(points, guess, (guess, wheel_information) if wheels else None, delta)
             if not match.information.any():          # nothing matched: no evidence from the scan
                 match = None
         if match is None:
@@ -122,8 +118,7 @@ class ScanOdometry:
         sizes = c.registration.voxel_sizes
         return sizes[c.start_level] if c.start_level < len(sizes) else c.registration.max_correspondence
 
-    def _register(self, points: np.ndarray, normals: np.ndarray, guess: gtsam.Pose2, prior,
-                  delta: gtsam.Pose2) -> Match:
+    def _register(self, points: np.ndarray, guess: gtsam.Pose2, prior, delta: gtsam.Pose2) -> Match:
         """Fine levels first (the prediction is usually good). On a good fit where the wheels allow
         poses that move the scan's points by more than the fine levels correct (their predicted
         motion ``delta``'s ``prediction_reach``: a turn of tens of degrees), the full
@@ -150,21 +145,21 @@ class ScanOdometry:
         match = self.registration.register(points, self._submap, guess, prior, start_level=c.start_level)
         if prior is not None and not self._gated(match.pose, prior) and not (
                 match.inlier_fraction * len(points) >= c.registration.min_points
-                and self._may_overrule(match, points, normals)):
+                and self._may_overrule(match, points)):
             # wandered off the wheels' prediction on fewer points than a match may rest on, or
             # on surfaces that cannot tell it from the wheels' pose
             match = self.registration.register(points, self._submap, guess, prior,
                                                start_level=len(c.registration.voxel_sizes))
         unsure = prior is None and self._fits_worse_than_recent(match, len(points))
         if match.inlier_fraction >= c.retry_inlier_fraction and not unsure:
-            return self._wide_start(points, normals, guess, prior, delta, match)
+            return self._wide_start(points, guess, prior, delta, match)
         if prior is not None:
             starts = [(guess, prior), (guess, None), (self.pose.compose(self._last_delta), None)]
         else:                                      # constant velocity, and zero motion
             starts = [(guess, None), (self.pose, None)]
         for start, start_prior in starts:
             other = self.registration.register(points, self._submap, start, start_prior)
-            if self._explains_more(other, match, prior, points, normals):
+            if self._explains_more(other, match, prior, points):
                 match = other
         if match.inlier_fraction < c.retry_inlier_fraction or unsure:
             window = c.correlative
@@ -182,13 +177,13 @@ class ScanOdometry:
                 if found is not None:
                     fine = len(c.registration.voxel_sizes) - 1
                     other = self.registration.register(points, self._submap, found.pose, start_level=fine)
-                    if self._explains_more(other, match, prior, points, normals):
+                    if self._explains_more(other, match, prior, points):
                         self.counts["correlative_matches"] += 1
                         match = other
         return match
 
-    def _wide_start(self, points: np.ndarray, normals: np.ndarray, guess: gtsam.Pose2, prior,
-                    delta: gtsam.Pose2, match: Match) -> Match:
+    def _wide_start(self, points: np.ndarray, guess: gtsam.Pose2, prior, delta: gtsam.Pose2,
+                    match: Match) -> Match:
         """The full coarse-to-fine schedule from the wheels' prediction, with their prior, where the
         fine start's ``match`` (a good fit) may have settled in the wrong optimum: the wheels allow
         poses beyond what the fine start corrects (``prediction_reach`` of their predicted motion
@@ -213,7 +208,7 @@ class ScanOdometry:
         other = self.registration.register(points, self._submap, guess, prior)
         if (self._separation(points, match.pose, other.pose) > c.registration.voxel_sizes[-1]
                 and explains_far_more(other, match, n, min_points)
-                and (self._gated(other.pose, prior) or self._may_overrule(other, points, normals))):
+                and (self._gated(other.pose, prior) or self._may_overrule(other, points))):
             self.counts["wide_start_wins"] += 1
             return other
         return match
@@ -233,7 +228,7 @@ class ScanOdometry:
         d = a.between(b)
         return float(np.hypot(d.x(), d.y()) + _median_range(points) * abs(d.theta()))
 
-    def _explains_more(self, other: Match, match: Match, prior, points: np.ndarray, normals: np.ndarray) -> bool:
+    def _explains_more(self, other: Match, match: Match, prior, points: np.ndarray) -> bool:
         """Does ``other`` explain more of the scan's (m, 2) ``points`` than ``match``? A pose the
         wheels rule out (beyond their χ²(3) gate at ``wheel_gate_probability``) must explain far
         more (``explains_far_more``: a wheel slip leaves most of the scan unexplained), on
@@ -243,17 +238,25 @@ class ScanOdometry:
         if prior is None or self._gated(other.pose, prior):
             return True
         return (explains_far_more(other, match, len(points), self.config.registration.min_points)
-                and self._may_overrule(other, points, normals))
+                and self._may_overrule(other, points))
 
-    def _may_overrule(self, match: Match, points: np.ndarray, normals: np.ndarray) -> bool:
-        """May ``match``, a pose the wheels rule out, stand against them? Only where the scan's own
-        surfaces, at the points the submap explains there, observe every direction
-        (``observes_every_direction``). A scan of one wall lies along any straight stretch of the
-        submap: office_g, a robot turning in place beside a wall it saw at grazing incidence
-        (0.42 m median range) laid it on another surface 144° off the wheels (81 % of 103 points
-        explained, against 58 % at the wheels' pose, whose wall ran on beyond the submap), and
-        the track never came back (ATE 114 m)."""
-        return observes_every_direction(match.pose, points, normals, self._submap, self.config.registration)
+    def _may_overrule(self, match: Match, points: np.ndarray) -> bool:
+        """May ``match``, a pose the wheels rule out, stand against them? Not where the scan's
+        (m, 2) ``points`` that the submap explains there lie along one straight line (their
+        spread across it, a standard deviation, below half ``inlier_distance``): a line lies
+        along any straight stretch of the submap, at any heading. office_g: a robot turning in
+        place beside a wall it saw at grazing incidence (0.42 m median range) laid its one-line
+        scan on another surface 144° off the wheels (81 % of 103 points explained, against 58 %
+        at the wheels' pose, whose wall ran on beyond the submap), and the track never came back
+        (ATE 114 m). Two walls fix the heading: where the wheels glitch (CSAIL's scans 1580-1588,
+        8-70° off in a corridor) the scan must overrule them."""
+        reg = self.config.registration
+        dist, _ = self._submap.tree.query(transform(match.pose, points), distance_upper_bound=reg.inlier_distance)
+        explained = points[np.isfinite(dist)]
+        if len(explained) < 2:
+            return False
+        across = np.linalg.svd(explained - explained.mean(axis=0), compute_uv=False)[-1] / np.sqrt(len(explained))
+        return bool(across >= 0.5 * reg.inlier_distance)
 
     def _gated(self, pose: gtsam.Pose2, prior) -> bool:
         """Is ``pose`` within the wheels' χ²(3) gate (``wheel_gate_probability``) of their

@@ -14,8 +14,7 @@ from slam.back_end import PoseGraph
 from slam.config import LoopClosureConfig, RegistrationConfig
 from slam.correlative import CorrelativeGrid
 from slam.correlative import match as correlative_match
-from slam.registration import (Match, Registration, Submap, explains_far_more, observes_every_direction,
-                               transform)
+from slam.registration import Match, Registration, Submap, degenerate_directions, explains_far_more, transform
 
 
 @dataclass
@@ -158,8 +157,7 @@ class LoopClosureDetector:
         if best.inlier_fraction < c.min_inlier_fraction:
             self.rejected["inliers"] += 1
             return None
-        if len(best.degenerate) or not observes_every_direction(best.pose, points, scans[k][1], submap,
-                                                                reg.config):
+        if len(best.degenerate) or not self._observes(best, points, scans[k][1], submap):
             self.rejected["degenerate"] += 1
             return None
         if not self._symmetric(best, j, k, graph, scans):
@@ -167,6 +165,26 @@ class LoopClosureDetector:
             return None
         d2 = mahalanobis(candidate.predicted, candidate.covariance, best)
         return LoopClosure(candidate, best, d2, searched)
+
+    def _observes(self, match: Match, points: np.ndarray, normals: np.ndarray, submap: Submap) -> bool:
+        """Do the scan's own surfaces, at the points the submap explains (``inlier_distance``),
+        observe every direction of the translation (``degenerate_eigenvalue``)? The match's
+        information comes from the normals of the submap points its scan points were paired
+        with, and a match slid along a corridor pairs wall points with the jambs of doors: it
+        reads the corridor's axis as observed where the scan sees no surface across it (the
+        built-in office, seed 4: a loop 0.29 m along the corridor, σ 9 mm there, bent the map
+        from 0.02 to 0.2 m ATE). The scan's own normals say what it observes, wherever it
+        is placed."""
+        reg = self.registration.config
+        dist, nearest = submap.tree.query(transform(match.pose, points), distance_upper_bound=reg.inlier_distance)
+        inlier, has = np.isfinite(dist), np.isfinite(normals[:, 0])
+        # a point its own neighbours leave without a normal (a corner, a wall's end) observes
+        # what the surface it lies on does: the submap's normal there, turned into the scan
+        surface = submap.normals[nearest[inlier & ~has]] @ np.array(
+            [[np.cos(match.pose.theta()), -np.sin(match.pose.theta())],
+             [np.sin(match.pose.theta()), np.cos(match.pose.theta())]])
+        observed = np.vstack([normals[inlier & has], surface[np.isfinite(surface[:, 0])]])
+        return len(observed) >= reg.min_points and not len(degenerate_directions(observed, reg.degenerate_eigenvalue))
 
     def _same_place(self, a: gtsam.Pose2, b: gtsam.Pose2) -> bool:
         """Are two poses one within the symmetry tolerances?"""

@@ -72,7 +72,7 @@ class PoseSlam:
         if any(self.config.laser_offset):                    # sensor frame → base frame
             points = transform(self.laser_offset, points)
             normals = transform(gtsam.Pose2(0.0, 0.0, self.laser_offset.theta()), normals)
-        tracked = self.front_end.track(points, odometry, normals)
+        tracked = self.front_end.track(points, odometry)
         self.degenerate_matches += tracked.match is not None and len(tracked.match.degenerate) > 0
         keyframe = None
         if not self._keyframe_front_pose:

@@ -172,27 +172,6 @@ def explains_far_more(match: Match, other: Match, points: int, min_points: int) 
     return 1.0 - match.inlier_fraction <= 0.5 * (1.0 - other.inlier_fraction) and gained >= min_points
 
 
-def observes_every_direction(pose: gtsam.Pose2, points: np.ndarray, normals: np.ndarray, submap: Submap,
-                             config: RegistrationConfig) -> bool:
-    """Do a scan's own surfaces, at the points the submap explains (``inlier_distance``) with the
-    scan at ``pose``, observe every direction of the translation (``degenerate_eigenvalue``)?
-
-    A match's information comes from the normals of the submap points its scan points were
-    paired with: a match slid along a corridor pairs wall points with the jambs of doors and
-    reads the corridor's axis as observed, and a scan of one wall laid on another surface reads
-    what that surface observes. The scan's own normals (``normals``, (m, 2) in the scan's frame,
-    NaN where unknown) say what it observes, wherever it is placed.
-    """
-    dist, nearest = submap.tree.query(transform(pose, points), distance_upper_bound=config.inlier_distance)
-    inlier, has = np.isfinite(dist), np.isfinite(normals[:, 0])
-    # a point its own neighbours leave without a normal (a corner, a wall's end) observes what
-    # the surface it lies on does: the submap's normal there, turned into the scan
-    surface = submap.normals[nearest[inlier & ~has]] @ np.array([[np.cos(pose.theta()), -np.sin(pose.theta())],
-                                                                 [np.sin(pose.theta()), np.cos(pose.theta())]])
-    observed = np.vstack([normals[inlier & has], surface[np.isfinite(surface[:, 0])]])
-    return len(observed) >= config.min_points and not len(degenerate_directions(observed, config.degenerate_eigenvalue))
-
-
 class Registration:
     """KISS-ICP registration (point-to-point, robust kernel) coarse to fine over the voxel sizes,
     then Gauss–Newton point-to-line refinement with a Cauchy kernel."""

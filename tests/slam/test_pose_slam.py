@@ -285,21 +285,21 @@ def test_a_retried_match_the_wheels_rule_out_must_explain_far_more():
     put it, 9 points more, and the track turned by 93°. The same shares of a 361-point scan are
     71 points. Within the gate, explaining more is enough."""
     front = ScanOdometry()
-    front._may_overrule = lambda *args: True      # the scan's surfaces observe every direction
+    front._may_overrule = lambda *args: True      # the scan's points are not one line
     guess = gtsam.Pose2(1.0, 2.0, 0.3)
     prior = (guess, np.linalg.inv(front.odometry_covariance(gtsam.Pose2(0.05, 0.0, 0.0))))
 
-    def scan(n):                                   # points and normals: only their count matters here
-        return np.zeros((n, 2)), np.zeros((n, 2))
+    def scan(n):                                   # points: only their count matters here
+        return np.zeros((n, 2))
 
     def match(pose, inliers):
         return Match(pose, np.eye(3), inliers, np.zeros((0, 3)), 0.01)
 
     near, slid = guess.compose(gtsam.Pose2(0.002, 0.0, 0.0)), guess.compose(gtsam.Pose2(-0.24, 0.17, 0.0))
     turned = guess.compose(gtsam.Pose2(0.613, -0.128, 1.631))
-    assert not front._explains_more(match(slid, 0.69), match(near, 0.665), prior, *scan(361))
-    assert front._explains_more(match(slid, 0.85), match(near, 0.665), prior, *scan(361))
-    assert front._explains_more(match(near, 0.69), match(guess, 0.665), prior, *scan(361))
-    assert front._explains_more(match(slid, 0.69), match(near, 0.665), None, *scan(361))      # no wheels: no gate
-    assert not front._explains_more(match(turned, 0.848), match(guess, 0.652), prior, *scan(46))
-    assert front._explains_more(match(turned, 0.848), match(guess, 0.652), prior, *scan(361))
+    assert not front._explains_more(match(slid, 0.69), match(near, 0.665), prior, scan(361))
+    assert front._explains_more(match(slid, 0.85), match(near, 0.665), prior, scan(361))
+    assert front._explains_more(match(near, 0.69), match(guess, 0.665), prior, scan(361))
+    assert front._explains_more(match(slid, 0.69), match(near, 0.665), None, scan(361))      # no wheels: no gate
+    assert not front._explains_more(match(turned, 0.848), match(guess, 0.652), prior, scan(46))
+    assert front._explains_more(match(turned, 0.848), match(guess, 0.652), prior, scan(361))
