@@ -128,14 +128,14 @@ class ScanOdometry:
         constant-velocity prediction too (wheel odometry can stall or jump); if the fit is still
         poor, the correlative search over metres and tens of degrees around the prediction,
         refined. Whichever explains most points wins (``_explains_more``: one the wheels rule out
-        must explain far more, on surfaces that can overrule the wheels: ``_may_overrule``).
+        must explain far more, on points that do not all lie on one line: ``_may_overrule``).
 
         The fine levels' point-to-point steps run without the wheels' prior: on a scan of
         new ground they can wander off it (office_g, turning into a big room: 52° off a 9° turn,
         on 15 of 27 points). A fine match beyond the wheels' gate that explains fewer points
-        than a match may rest on (``min_points``), or on surfaces that cannot overrule the
-        wheels (``_may_overrule``), gives way to point-to-line refinement from their prediction,
-        with their prior.
+        than a match may rest on (``min_points``), or on points along one line
+        (``_may_overrule``), gives way to point-to-line refinement from their prediction, with
+        their prior.
 
         Without wheels the prediction is constant velocity, which nothing vouches for: a robot
         that stops and turns in place (Örebro's log, metres and tens of degrees between scans) is
@@ -147,7 +147,7 @@ class ScanOdometry:
                 match.inlier_fraction * len(points) >= c.registration.min_points
                 and self._may_overrule(match, points)):
             # wandered off the wheels' prediction on fewer points than a match may rest on, or
-            # on surfaces that cannot tell it from the wheels' pose
+            # on one line, which lies as well along any straight stretch of the submap
             match = self.registration.register(points, self._submap, guess, prior,
                                                start_level=len(c.registration.voxel_sizes))
         unsure = prior is None and self._fits_worse_than_recent(match, len(points))
@@ -231,8 +231,8 @@ class ScanOdometry:
     def _explains_more(self, other: Match, match: Match, prior, points: np.ndarray) -> bool:
         """Does ``other`` explain more of the scan's (m, 2) ``points`` than ``match``? A pose the
         wheels rule out (beyond their χ²(3) gate at ``wheel_gate_probability``) must explain far
-        more (``explains_far_more``: a wheel slip leaves most of the scan unexplained), on
-        surfaces that can overrule the wheels (``_may_overrule``)."""
+        more (``explains_far_more``: a wheel slip leaves most of the scan unexplained), on points
+        that do not all lie on one line (``_may_overrule``)."""
         if other.inlier_fraction <= match.inlier_fraction + 0.02:
             return False
         if prior is None or self._gated(other.pose, prior):
