@@ -27,6 +27,7 @@ from sim.lidar import Lidar, LidarConfig
 from sim.odometry import Odometry, OdometryNoise
 from sim.robot import Robot, RobotConfig
 from sim.world import World
+from slam.agreement import agreement
 from slam.poses import positions
 from slam.scan import LaserScan
 
@@ -341,13 +342,16 @@ def _metrics(result: EpisodeResult, evaluator: Evaluator, robot: Robot, seed: in
     ``ate_rmse_m`` is the error of the pose each step acted on, as the robot then knew it;
     ``ate_final_rmse_m`` that of every step's pose after the run's last correction (the final
     trajectory, as SLAM benchmarks score one). Neither is aligned: the run starts at its known
-    start pose."""
+    start pose, and a heading error gathered before any loop turns the whole map, which no later
+    loop can see. ``ate_final_aligned_rmse_m`` is the final trajectory's after the best rigid
+    planar alignment to the truth: the map's own shape."""
     c, stack = result.config, result.stack
     curve = np.array(result.curve)
     steps = len(result.stamps)
     truth = positions(result.truth)
     error = positions(result.estimate) - truth
-    final = positions(stack.localiser.trajectory()) - truth
+    trajectory = stack.localiser.trajectory()
+    final = positions(trajectory) - truth
     prob = stack.map.prob()
     missed_regions = evaluator.missed_regions(stack, prob)
     missed = float(sum(r["area_m2"] for r in missed_regions))
@@ -379,6 +383,7 @@ def _metrics(result: EpisodeResult, evaluator: Evaluator, robot: Robot, seed: in
         "auc": evaluator.auc(stack, prob),
         "ate_rmse_m": float(np.sqrt(np.mean(np.sum(error ** 2, axis=1)))),
         "ate_final_rmse_m": float(np.sqrt(np.mean(np.sum(final ** 2, axis=1)))),
+        "ate_final_aligned_rmse_m": agreement(trajectory, result.truth)["rmse_m"],
         "collisions": robot.collisions,
     }
 

@@ -232,6 +232,7 @@ def suite_rows(outcomes: list[dict]) -> list[dict]:
             "collisions": sum(m["collisions"] for m in done),
             "ate_m": _mean(m["ate_rmse_m"] for m in done),
             "ate_final_m": _mean(m.get("ate_final_rmse_m") for m in done),
+            "ate_aligned_m": _mean(m.get("ate_final_aligned_rmse_m") for m in done),
             "ms_per_scan": _mean(map(cost_per_scan_ms, done)),
         })
     return rows
@@ -309,7 +310,7 @@ COLUMNS = [("world", "world", "s", 1), ("method", "method", "s", 1), ("ok/runs",
            ("missed m²", "missed_area_m2", ".1f", 1),
            ("worst missed m²", "missed_area_worst_m2", ".1f", 1), ("ended", "ended", "", 1),
            ("collisions", "collisions", "d", 1), ("ATE m", "ate_m", ".3f", 1),
-           ("final ATE m", "ate_final_m", ".3f", 1),
+           ("final ATE m", "ate_final_m", ".3f", 1), ("aligned m", "ate_aligned_m", ".3f", 1),
            ("ms/scan", "ms_per_scan", ".1f", 1)]
 
 

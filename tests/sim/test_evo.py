@@ -31,3 +31,11 @@ def test_evo_ape_of_the_written_trajectories_is_the_runs_ate(tmp_path):
         assert written[key] > 1e-3      # SLAM, not the truth: the comparison means something
         assert ape.get_statistic(metrics.StatisticsType.rmse) == pytest.approx(written[key], rel=1e-4, abs=2e-6)
     assert written["ate_final_rmse_m"] != written["ate_rmse_m"]    # the graph moved the poses
+    # ate_final_aligned_rmse_m: evo's APE of the final trajectory (the last read) after its
+    # Umeyama alignment (no scale)
+    estimate.align(truth, correct_scale=False)
+    ape = metrics.APE(metrics.PoseRelation.translation_part)
+    ape.process_data((truth, estimate))
+    assert written["ate_final_aligned_rmse_m"] < written["ate_final_rmse_m"]
+    assert ape.get_statistic(metrics.StatisticsType.rmse) == pytest.approx(written["ate_final_aligned_rmse_m"],
+                                                                         rel=1e-4, abs=2e-6)
