@@ -154,10 +154,14 @@ def _seeded_starts(world: WorldSpec, radii: list[float], seeds: list[int]) -> di
 
 
 def execute(run: Run) -> dict:
-    """Load the world, explore it and write the run's folder; the run's metrics. Runs in a worker."""
+    """Load the world, explore it and write the run's folder (metrics.json's ``world_spec`` loads
+    the world again for ``gpexplore rerun``); the run's metrics. Runs in a worker."""
     world = run.world.load()
     result = run_episode(world, gtsam.Pose2(*run.world.start), EpisodeConfig.model_validate(run.config),
                          seed=run.seed)
+    size = run.world.size
+    result.metrics["world_spec"] = {"world": run.world.spec, "size": None if size is None else list(size),
+                                    "resolution": run.world.resolution}
     write_episode(run.folder, result)
     return result.metrics
 

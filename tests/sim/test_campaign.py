@@ -1,5 +1,6 @@
 import csv
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -129,6 +130,22 @@ def test_campaign_resumes_only_unfinished_runs(tmp_path, room, pool):
     assert sorted(ended) == sorted(r.folder for r in runs[1:])
     assert done.stat().st_mtime_ns == stamp
     assert all(len(v) == 2 for v in results(runs)["room.png"].values())
+
+
+def test_a_campaign_run_is_run_again_by_rerun_from_its_folder(tmp_path, room):
+    """Its metrics.json says how to load its world (a bitmap's path and size), so ``gpexplore
+    rerun`` repeats it: the same metrics but for the machine's times."""
+    from typer.testing import CliRunner
+
+    from sim.cli import app
+
+    run = plan(tmp_path, [room], configs(max_steps=20), [2])[0]
+    first = execute(run)
+    assert first["world_spec"] == {"world": room.spec, "size": [5.0, 3.0], "resolution": None}
+    result = CliRunner().invoke(app, ["rerun", run.folder, "--out", str(tmp_path / "again")])
+    assert result.exit_code == 0, result.output
+    again = json.loads((tmp_path / "again" / "metrics.json").read_text())
+    assert without_wall(again) == without_wall(json.loads((Path(run.folder) / "metrics.json").read_text()))
 
 
 def test_a_failed_run_is_recorded_and_retried(tmp_path, room, pool):
