@@ -182,7 +182,8 @@ class LoopClosureDetector:
         the submap had not explained 0.608 of its points at the true place and 0.748 with
         one doorway laid on the other, reached from a start turned 7.5°."""
         c = self.config
-        others = [(score, start) for score, start in starts if not self._same_place(start, best_start)]
+        others = [(score, start) for score, start in starts   # (a NaN start scores nothing)
+                  if score > 0.0 and not self._same_place(start, best_start)]
         if not others:
             return best
         coarse = min(c.coarse_levels, len(self.registration.config.voxel_sizes) - 1)

@@ -1,7 +1,8 @@
 """Loop closures: verification in twin rooms (a false loop rejected, a true one recovered, a
 biased one caught by the reverse registration), a loop slid along the built-in office's corridor
-(the scan observes no surface across it), the Mahalanobis gate and pending loops of Pose SLAM,
-the Cauchy-robust loop factor, and pairwise consistency of two loops.
+(the scan observes no surface across it), a scan that fits two places along a corridor of
+doorways, the Mahalanobis gate and pending loops of Pose SLAM, the Cauchy-robust loop factor,
+and pairwise consistency of two loops.
 
 Scans are cast exactly (no range noise) from true poses into axis-aligned walls; the pose graph
 holds the *believed* poses, whose links are exact except where a drift is put in on purpose. A
