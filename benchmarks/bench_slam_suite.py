@@ -1,7 +1,7 @@
 """Pose SLAM on every log in the shared data: one row per log, the worst case beside the mean.
 
     OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 python benchmarks/bench_slam_suite.py
-        [--logs NAME ...] [--perturb 5] [--seed 0] [--config SLAM.toml]
+        [--logs NAME ...] [--perturb 5] [--seed 0] [--config FILE]
 
 Prints, never asserts, per log: scans, keyframes and loop closures; the real-time factor of
 Pose SLAM and its wall time against the scan-matching front end alone (loop closing off) in the
@@ -14,8 +14,10 @@ be told from a worse map); for MIT CSAIL, the Kümmerle relation error (mean, sh
 max). With
 ``--perturb N``, N more replays with the ranges perturbed by seeded 1 mm Gaussian noise: the
 largest trajectory RMSE between a perturbed replay and the clean one, and the spread (max − min)
-of their agreement with GMapping. A crash is a row too, with its error. ``--config`` replays with a
-Pose SLAM configuration file (TOML or YAML, the fields of ``SlamConfig``) instead of the defaults.
+of their agreement with GMapping. A crash is a row too, with its error. ``--config`` replays with
+the ``[stack.slam]`` section of a configuration file, as ``gpexplore replay --config`` does (TOML
+or YAML: ``gpexplore config dump`` writes one, a run's config.toml is one), instead of the
+defaults; a bad file stops the benchmark before any replay, naming the file and the key.
 
 Targets (issue 12): 0 crashes; agreement RMSE ≤ 0.10 m and max ≤ 0.5 m on each corrected log;
 CSAIL ≤ 0.025 m / 0.33° mean, worst relation ≤ 0.3 m; perturbed replays within 0.05 m; on
@@ -36,7 +38,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from sim.config_file import read_config  # noqa: E402
+from sim.config_file import ConfigError, read_config  # noqa: E402
 from sim.data import benchmark_data_dir  # noqa: E402
 from sim.logs import replay_log  # noqa: E402
 from slam.agreement import agreement  # noqa: E402
@@ -138,7 +140,10 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of the first perturbed replay")
     parser.add_argument("--config", type=Path, help="Pose SLAM configuration file (default: the defaults)")
     args = parser.parse_args()
-    config = read_config(args.config, SlamConfig) if args.config else SlamConfig()
+    try:
+        config = read_config(args.config).stack.slam if args.config else SlamConfig()
+    except ConfigError as err:
+        parser.error(str(err))
     data = benchmark_data_dir()
     paths = sorted(p for p in (data / "logs").iterdir() if p.name.endswith((".clf", ".log", ".gz")))
     if args.logs:
