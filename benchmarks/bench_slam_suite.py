@@ -146,6 +146,10 @@ def main() -> None:
         parser.error(str(err))
     data = benchmark_data_dir()
     paths = sorted(p for p in (data / "logs").iterdir() if p.name.endswith((".clf", ".log", ".gz")))
+    unknown = [name for name in args.logs or [] if not any(p.name.startswith(name) for p in paths)]
+    if unknown:
+        parser.error(f"no log in {data / 'logs'} starts with {', '.join(unknown)} "
+                     f"(have: {', '.join(p.name for p in paths)})")
     if args.logs:
         paths = [p for p in paths if any(p.name.startswith(name) for name in args.logs)]
     crashes = 0
