@@ -125,7 +125,7 @@ class LoopClosureDetector:
         # coarse levels from each yaw offset, scored by the share of points near the submap;
         # the fine levels and the refinement only from the best start
         reg = self.registration
-        coarse = min(c.coarse_levels, len(reg.config.voxel_sizes) - 1)
+        coarse = self._coarse_levels
         best_start, best_score = None, -1.0
         starts = []
         for offset in np.radians(c.yaw_offsets_deg):
@@ -172,6 +172,11 @@ class LoopClosureDetector:
         d2 = mahalanobis(candidate.predicted, candidate.covariance, best)
         return LoopClosure(candidate, best, d2, searched)
 
+    @property
+    def _coarse_levels(self) -> int:
+        """The voxel levels run from every yaw offset (``coarse_levels``, at most all but the finest)."""
+        return min(self.config.coarse_levels, len(self.registration.config.voxel_sizes) - 1)
+
     def _unrivalled(self, best: Match, best_start: gtsam.Pose2, starts: list[tuple[float, gtsam.Pose2]],
                     points: np.ndarray, submap: Submap) -> Match | None:
         """``best``, unless the best coarse start in another place than ``best_start`` settles,
@@ -186,9 +191,8 @@ class LoopClosureDetector:
                   if score > 0.0 and not self._same_place(start, best_start)]
         if not others:
             return best
-        coarse = min(c.coarse_levels, len(self.registration.config.voxel_sizes) - 1)
         rival = self.registration.register(points, submap, max(others, key=lambda s: s[0])[1],
-                                           start_level=max(coarse - 1, 0))
+                                           start_level=max(self._coarse_levels - 1, 0))
         if self._same_place(rival.pose, best.pose) or rival.inlier_fraction < c.min_inlier_fraction:
             return best
         min_points = self.registration.config.min_points
@@ -256,8 +260,8 @@ class LoopClosureDetector:
         submap = Submap.from_scans([xk.between(graph.pose(i)) for i in members],
                                    [scans[i][0] for i in members], [scans[i][1] for i in members],
                                    self.registration.config)
-        coarse = min(c.coarse_levels, len(self.registration.config.voxel_sizes) - 1)
-        back = self.registration.register(scans[j][0], submap, match.pose.inverse(), start_level=coarse)
+        back = self.registration.register(scans[j][0], submap, match.pose.inverse(),
+                                          start_level=self._coarse_levels)
         return self._same_place(match.pose.inverse(), back.pose)
 
     def consistent(self, a: LoopClosure, b: LoopClosure, graph: PoseGraph) -> bool:
