@@ -6,6 +6,7 @@ import gtsam
 import numpy as np
 import pytest
 
+from exploration import frontier_methods
 from exploration.costmap import passable
 from exploration.explorer import Explorer, ExplorerConfig
 from exploration.frontier_methods import (VIEWS, CFrontier, DoorFrontier, MissedByF, Reachable, look, nearest_view,
@@ -317,6 +318,39 @@ def test_a_look_counts_only_unknown_space_the_robot_could_drive_into():
         counted = look(reached, reachable, np.array(at), config, config.costmap)
         assert alone >= config.min_gain
         assert 0.9 * alone < counted < alone if door else counted == 0.0
+
+
+def test_a_look_is_computed_again_only_where_the_map_it_reads_changed(monkeypatch):
+    """Looks are kept by what they read (``_Looks``). The same look on the same map is computed
+    once. Past the door, a look sees 1 m² or more; once the space past it is walled in (a
+    closet) the same look shows none: an answer kept by the look's point alone would still
+    read the first. A change beyond the laser's range (an occupied cell 1.5 m left of the
+    room, 8.6 m from a look from past the door) leaves that look's answer, and it is what the
+    look computed on the changed map gives."""
+    monkeypatch.setattr(frontier_methods, "_LOOKS", frontier_methods._Looks())
+    computed = []
+    compute = frontier_methods._look
+    monkeypatch.setattr(frontier_methods, "_look", lambda *args: computed.append(args) or compute(*args))
+    config = ExplorerConfig()
+
+    def looked(snapshot, at):
+        reachable = Explorer(config)._reachable(snapshot, ROBOT)
+        frontier = CFrontier(config).frontier(snapshot)
+        args = (within_reach(frontier, reachable, config.robot_radius, config.costmap), reachable,
+                np.array(at), config, config.costmap)
+        return look(*args), compute(*args)
+
+    door = one_opening()
+    shown, fresh = looked(door, (7.7, 4.0))
+    assert shown == fresh >= config.min_gain
+    assert looked(door, (7.7, 4.0)) == (shown, fresh) and len(computed) == 1
+    assert looked(explored_opening(), (7.7, 4.0)) == (0.0, 0.0) and len(computed) == 2
+
+    past, _ = looked(door, (9.0, 4.0))
+    assert past > 0 and len(computed) == 3
+    far = one_opening()
+    far.prob[40, 3] = far.prob_occ[40, 3] = WALL
+    assert looked(far, (9.0, 4.0)) == (past, past) and len(computed) == 3
 
 
 def test_grid_method_on_the_same_maps_keeps_its_goal_too():
