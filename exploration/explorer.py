@@ -24,7 +24,7 @@ from exploration.follower import rest_of_path
 from exploration.frontier_methods import (CFrontier, DoorFrontier, Frontier, GridFrontier, MissedByF,
                                           Reachable, evidence)
 from exploration.goals import Blacklist, FrontierCluster, GoalConfig
-from exploration.paths import distance_field, near_distance
+from exploration.paths import distance_field
 from mapping.occupancy import MapSnapshot
 
 
@@ -219,8 +219,7 @@ class Explorer:
                    until: np.ndarray | None = None) -> Reachable:
         """Path lengths from the robot over the ``costmap`` (``_passable``'s, computed when not
         given) with the robot's footprint and without the closed stretches; with ``until``
-        (2,) m, only as far as that point's cell (``distance_field``), without the lengths to
-        places near each cell (``near`` None)."""
+        (2,) m, only as far as that point's cell (``distance_field``)."""
         c = self.config
         origin, resolution = np.asarray(snapshot.origin, float), snapshot.resolution
         here = np.array([pose.x(), pose.y()])
@@ -232,9 +231,8 @@ class Explorer:
         inside = goal is not None and 0 <= goal[0] < w and 0 <= goal[1] < h
         dist, parent = distance_field(ok, np.clip(start, 0, [w - 1, h - 1]), resolution, cost,
                                       until=goal if inside else None)
-        reach = max(1, round(c.goals.reach / resolution))
-        return Reachable(dist, parent, None if until is not None else near_distance(dist, reach), reach,
-                         origin, resolution, here, offset)
+        return Reachable(dist, parent, max(1, round(c.goals.reach / resolution)), origin, resolution,
+                         here, offset)
 
     def _closed_cells(self, shape: tuple[int, int], origin: np.ndarray, resolution: float) -> np.ndarray:
         """(h, w) bool: the cells of the closed stretches (``stuck``) and the cells beside them."""

@@ -26,7 +26,7 @@ from exploration.gain import visible_unknown_area
 from exploration.goals import Blacklist, FrontierCluster, extract_goals
 from exploration.grid_frontier import grid_frontiers, region_size
 from exploration.openings import hits_near, holding_hits, in_a_wall_gap, seen_through_a_gap
-from exploration.paths import Approach, best_cell_near, nearest_reachable_cell, path_to
+from exploration.paths import Approach, best_cell_near, near_distance, nearest_reachable_cell, path_to
 from mapping.metrics import KNOWN
 from mapping.occupancy import MapSnapshot
 
@@ -40,14 +40,13 @@ VIEWS = 8
 @dataclass(frozen=True)
 class Reachable:
     """Where the robot can go on one snapshot: path length ``dist`` (h, w) in meters from the
-    robot (inf where unreachable) with its Dijkstra ``parent``; ``near`` (h, w), the path length
-    to the best reachable cell within ``reach`` cells of each cell; the snapshot's ``origin``
-    and ``resolution``; the robot's position ``here`` (2,); and ``offset`` (h, w, 2), meters
-    from each cell's centre to the point a path through it passes (``costmap.passable``'s)."""
+    robot (inf where unreachable) with its Dijkstra ``parent``; ``reach``, cells from a
+    frontier cell to its goal; the snapshot's ``origin`` and ``resolution``; the robot's
+    position ``here`` (2,); and ``offset`` (h, w, 2), meters from each cell's centre to the
+    point a path through it passes (``costmap.passable``'s)."""
 
     dist: np.ndarray
     parent: np.ndarray
-    near: np.ndarray
     reach: int
     origin: np.ndarray
     resolution: float
@@ -57,6 +56,11 @@ class Reachable:
     def cell(self, xy: np.ndarray) -> np.ndarray:
         """The (ix, iy) cell of a point (meters)."""
         return np.round((np.asarray(xy) - self.origin) / self.resolution).astype(int)
+
+    def near(self, cells: np.ndarray) -> np.ndarray:
+        """(k,) the path length to the best reachable cell within ``reach`` cells of each of
+        ``cells`` (k, 2) (ix, iy) (``paths.near_distance``)."""
+        return near_distance(self.dist, self.reach, cells)
 
     def distance_to(self, xy: np.ndarray) -> float:
         """Path length (m) to the cell of ``xy``; inf when unreachable or off the map."""
@@ -138,7 +142,7 @@ class CFrontier:
                             c.goals.reach)
         clusters = extract_goals(frontier.values, reachable.origin, reachable.resolution,
                                  reachable.dist, c.goals, blacklist, seed=int(rng.integers(2**31)),
-                                 approach=approach, near=reachable.near)
+                                 approach=approach)
         reached = within_reach(frontier, reachable, c.robot_radius, self.costmap)
         kept = [k for k in (significant(k, frontier, reached, reachable, approach, c, self.costmap)
                             for k in clusters) if k is not None]
@@ -219,7 +223,7 @@ class GridFrontier:
             region = region[~blacklist.covers(origin + resolution * region)]
             if region_size(region) < self.min_cells(resolution):
                 continue
-            d = reachable.near[region[:, 1], region[:, 0]]
+            d = reachable.near(region)
             best = int(np.argmin(d))
             distance = float(d[best])
             if np.isfinite(distance):
@@ -606,7 +610,8 @@ def reachable_unknown(frontier: Frontier, reachable: Reachable, at: np.ndarray, 
         window[inside] = frontier.evidence[y0:y1, x0:x1]
         clearance[inside] = frontier.clearance[y0:y1, x0:x1]
     origin = reachable.origin + resolution * np.array([cx - half, cy - half])
-    regions, _ = ndimage.label(clearance > _passage(config, costmap, resolution), structure=np.ones((3, 3), dtype=bool))
+    passage = _passage(config, costmap, resolution)
+    regions, _ = ndimage.label(clearance > passage, structure=np.ones((3, 3), dtype=bool))
     around = regions[half - 1:half + 2, half - 1:half + 2]
     joined = np.unique(around[around > 0])
     if not len(joined):

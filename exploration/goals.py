@@ -84,8 +84,7 @@ def utility(mean_value: float, size: int, total: int, distance: float, alpha: fl
 
 def extract_goals(frontier: np.ndarray, origin, resolution: float, dist: np.ndarray,
                   config: GoalConfig, blacklist: Blacklist | None = None,
-                  seed: int = 0, approach: Approach | None = None,
-                  near: np.ndarray | None = None) -> list[FrontierCluster]:
+                  seed: int = 0, approach: Approach | None = None) -> list[FrontierCluster]:
     """Frontier clusters, best first (eq. 11); empty when fewer than ``min_points`` points of F
     are above the threshold outside the blacklist.
 
@@ -101,8 +100,6 @@ def extract_goals(frontier: np.ndarray, origin, resolution: float, dist: np.ndar
         approach: where to look at a cluster no reachable cell is within reach of (else it
             has no goal); its ``blocked`` cells, when given, must not hide a cluster's nearest
             point from its goal (``best_cell_near``).
-        near: ``paths.near_distance`` of ``dist`` over ``config.reach``, when the caller has
-            it (``Reachable.near``); else computed here.
     """
     iy, ix = np.nonzero(frontier > config.threshold)
     points = np.asarray(origin) + resolution * np.column_stack([ix, iy])
@@ -116,13 +113,13 @@ def extract_goals(frontier: np.ndarray, origin, resolution: float, dist: np.ndar
     labels = KMeans(n_clusters=k, n_init=1, random_state=seed).fit_predict(points)
     # path length to the best reachable cell within reach of each frontier point
     radius = max(1, round(config.reach / resolution))
-    near = near_distance(dist, radius) if near is None else near
+    near = near_distance(dist, radius, np.column_stack([ix, iy]))
     clusters = []
     for label in range(k):
         members = labels == label
         if not members.any():
             continue
-        d_points = near[iy[members], ix[members]]
+        d_points = near[members]
         best = int(np.argmin(d_points))
         distance = float(d_points[best])
         cell = None

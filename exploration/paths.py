@@ -98,25 +98,27 @@ def _disc(radius: int) -> tuple[np.ndarray, np.ndarray]:
     return disc, np.column_stack([xx[disc], yy[disc]])
 
 
-def near_distance(dist: np.ndarray, radius: int) -> np.ndarray:
-    """(h, w) the smallest ``dist`` within ``radius`` cells of each cell: the path length to
-    a place from which the robot is that close to the cell. The disc is taken row by row, each
-    row's span a running minimum along x, so the cost does not grow with the disc's area."""
-    disc, _ = _disc(radius)
-    h = dist.shape[0]
-    near = np.full(dist.shape, np.inf)
-    rows = {}       # half-width of a row of the disc -> dist's minimum over that row's span
-    for dy in range(-radius, radius + 1):
-        half = int(disc[dy + radius].sum()) // 2
-        if half not in rows:
-            rows[half] = ndimage.minimum_filter1d(dist, 2 * half + 1, axis=1, mode="constant",
-                                                  cval=np.inf)
-        span = rows[half]
-        if dy >= 0:
-            np.minimum(near[:h - dy], span[dy:], out=near[:h - dy])
-        else:
-            np.minimum(near[-dy:], span[:h + dy], out=near[-dy:])
-    return near
+def near_distance(dist: np.ndarray, radius: int, cells: np.ndarray) -> np.ndarray:
+    """(k,) the smallest ``dist`` within ``radius`` cells of each of ``cells`` (k, 2) (ix, iy)
+    (off the map: inf): the path length to a place from which the robot is that close to the
+    cell. Read at the cells asked about alone (a goal choice asks about its frontier points):
+    the whole map's took a third of each choice on office_g's late map."""
+    cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
+    out = np.empty(len(cells))
+    _near(np.asarray(dist, dtype=float), _disc(radius)[1].astype(np.int64), cells, out)
+    return out
+
+
+@numba.njit(cache=True)
+def _near(dist, offsets, cells, out):
+    h, w = dist.shape
+    for k in range(cells.shape[0]):
+        best = np.inf
+        for j in range(offsets.shape[0]):
+            x, y = cells[k, 0] + offsets[j, 0], cells[k, 1] + offsets[j, 1]
+            if 0 <= x < w and 0 <= y < h and dist[y, x] < best:
+                best = dist[y, x]
+        out[k] = best
 
 
 def best_cell_near(dist: np.ndarray, cell, radius: int, blocked: np.ndarray | None = None) -> np.ndarray:

@@ -504,14 +504,13 @@ def test_a_cluster_out_of_reach_is_looked_at_from_before_its_gap_but_not_counted
     reachable = Explorer(config)._reachable(snapshot, ROBOT)
     cells = np.round((points - snapshot.origin) / RES).astype(int)
     beyond = points[:, 0] > 7.0
-    assert beyond.any() and not np.isfinite(reachable.near[cells[beyond, 1], cells[beyond, 0]]).any()
+    assert beyond.any() and not np.isfinite(reachable.near(cells[beyond])).any()
     frontier = CFrontier(config).frontier(snapshot)
     approach = Approach(reachable.dist, frontier.blocked, RES, config.goals.view, config.goals.reach)
     cluster, = extract_goals(frontier.values, snapshot.origin, RES, reachable.dist, config.goals,
-                             approach=approach, near=reachable.near)
+                             approach=approach)
     beyond_only = extract_goals(frontier.values * (np.arange(100) > 70),
-                                snapshot.origin, RES, reachable.dist, config.goals, approach=approach,
-                                near=reachable.near)[0]
+                                snapshot.origin, RES, reachable.dist, config.goals, approach=approach)[0]
     assert 7.4 <= beyond_only.goal[0] < 7.9 and 3.8 <= beyond_only.goal[1] <= 4.2     # before the gap
     assert len(cluster.points) == len(points)
     shown = visible_unknown_area(snapshot.prob, snapshot.origin, RES, beyond_only.goal, 2.0,
@@ -858,7 +857,7 @@ def test_the_nearest_view_is_the_nearest_by_path_that_shows_each_cell_asked_once
     nearest by path that shows; the first spread of those as near: x 3.5 m before 2.5 m):
     the same goal, each goal asked once, none farther than the answer."""
     dist = np.tile(np.abs(np.arange(40) - 30) * 0.1, (20, 1))
-    reachable = Reachable(dist, None, None, 1, np.zeros(2), RES, np.zeros(2), None)
+    reachable = Reachable(dist, None, 1, np.zeros(2), RES, np.zeros(2), None)
     points = np.column_stack([np.arange(40) * RES, np.full(40, 1.0)])
     cell_near = lambda d, cell, reach: np.array([cell[0] // 5 * 5, cell[1]])
     shows = lambda goal: round(goal[0] / RES) in accepted

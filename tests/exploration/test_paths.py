@@ -54,18 +54,19 @@ def test_near_distance_is_the_smallest_value_in_the_disc(radius):
                     y, x = iy + dy, ix + dx
                     if dx * dx + dy * dy <= radius * radius and 0 <= y < h and 0 <= x < w:
                         brute[iy, ix] = min(brute[iy, ix], dist[y, x])
-    assert np.array_equal(near_distance(dist, radius), brute)
+    iy, ix = np.nonzero(np.ones(dist.shape, bool))
+    assert np.array_equal(near_distance(dist, radius, np.column_stack([ix, iy])), brute[iy, ix])
 
 
 def test_near_distance_and_best_cell():
     passable = np.zeros((20, 20), dtype=bool)
     passable[10, :] = True
     dist, _ = distance_field(passable, (0, 10), 1.0)
-    near = near_distance(dist, 2)
-    assert near[12, 5] == pytest.approx(5.0)  # from (5, 10), the only row cell within 2 of (5, 12)
-    assert np.isinf(near[13, 5])
+    near = near_distance(dist, 2, [(5, 12), (5, 13), (5, 11)])
+    assert near[0] == pytest.approx(5.0)  # from (5, 10), the only row cell within 2 of (5, 12)
+    assert np.isinf(near[1])
     assert tuple(best_cell_near(dist, (5, 12), 2)) == (5, 10)
-    assert near[11, 5] == pytest.approx(4.0)  # (4, 10) is within 2 cells of (5, 11)
+    assert near[2] == pytest.approx(4.0)  # (4, 10) is within 2 cells of (5, 11)
 
 
 def test_the_best_cell_near_a_frontier_cell_sees_it():
