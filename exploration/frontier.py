@@ -55,3 +55,40 @@ def frontier_map_within(prob: np.ndarray, prob_occ: np.ndarray, resolution: floa
     values = frontier_map(np.asarray(prob)[y0:y1, x0:x1], np.asarray(prob_occ)[y0:y1, x0:x1],
                           resolution, beta, smoothing)
     return values[rows[0] - y0:rows[1] - y0, cols[0] - x0:cols[1] - x0]
+
+
+class FrontierMap:
+    """F (eq. 10) of a map between its updates: each call recomputes F only round the cells
+    where Λ or Λo changed since the last call (``frontier_map_within`` over their box, widened
+    by the cells F reads round each cell), equal to the whole map's to the last bit. A map's
+    update changes the cells within the laser's range of the robot, and the whole map's F took
+    a third of each goal choice on office_g's late map (75 ms of 1.2 M cells). A grid that grew
+    or moved is computed whole."""
+
+    def __init__(self, beta: float = 2.5, smoothing: float = 0.1):
+        self.beta, self.smoothing = beta, smoothing
+        self._last: tuple | None = None     # (origin, resolution, Λ, Λo, F) of the last call
+
+    def __call__(self, prob: np.ndarray, prob_occ: np.ndarray, resolution: float, origin) -> np.ndarray:
+        """(h, w) F of ``prob`` Λ and ``prob_occ`` Λo, cell (0, 0)'s centre at ``origin``; the
+        array returned is not changed later (a later call returns a new one, or the same when
+        nothing changed)."""
+        prob, prob_occ = np.asarray(prob, dtype=float), np.asarray(prob_occ, dtype=float)
+        origin = tuple(float(v) for v in origin)
+        last = self._last
+        if last is None or last[:2] != (origin, resolution) or last[2].shape != prob.shape:
+            values = frontier_map(prob, prob_occ, resolution, self.beta, self.smoothing)
+        else:
+            changed = (prob != last[2]) | (prob_occ != last[3])
+            rows, cols = np.flatnonzero(changed.any(axis=1)), np.flatnonzero(changed.any(axis=0))
+            if not len(rows):
+                return last[4]
+            reach = int(4.0 * self.smoothing / resolution + 0.5) + 2 if self.smoothing > 0 else 2
+            h, w = prob.shape
+            y0, y1 = max(rows[0] - reach, 0), min(rows[-1] + reach + 1, h)
+            x0, x1 = max(cols[0] - reach, 0), min(cols[-1] + reach + 1, w)
+            values = last[4].copy()
+            values[y0:y1, x0:x1] = frontier_map_within(prob, prob_occ, resolution, (y0, y1), (x0, x1),
+                                                       self.beta, self.smoothing)
+        self._last = (origin, resolution, prob.copy(), prob_occ.copy(), values)
+        return values

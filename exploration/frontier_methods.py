@@ -21,7 +21,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from exploration.costmap import CostmapConfig, classify, distance_to_points
-from exploration.frontier import frontier_map, frontier_map_within
+from exploration.frontier import FrontierMap, frontier_map_within
 from exploration.gain import visible_unknown_area
 from exploration.goals import Blacklist, FrontierCluster, extract_goals
 from exploration.grid_frontier import grid_frontiers, region_size
@@ -109,10 +109,11 @@ class CFrontier:
     def __init__(self, config: ExplorerConfig):
         self.config = config
         self.costmap: CostmapConfig = config.costmap
+        self._frontier_map = FrontierMap(config.beta, config.smoothing)
 
     def frontier(self, snapshot: MapSnapshot) -> Frontier:
         c = self.config
-        values = frontier_map(snapshot.prob, snapshot.prob_occ, snapshot.resolution, c.beta, c.smoothing)
+        values = self._frontier_map(snapshot.prob, snapshot.prob_occ, snapshot.resolution, snapshot.origin)
         iy, ix = np.nonzero(values > c.goals.threshold)
         return Frontier(values, np.column_stack([ix, iy]),
                         evidence=look_map(snapshot, self.costmap, c.robot_radius),

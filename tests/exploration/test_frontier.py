@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from exploration.frontier import frontier_map, frontier_map_within, l1_gradient
+from exploration.frontier import FrontierMap, frontier_map, frontier_map_within, l1_gradient
 
 RES = 0.1
 
@@ -72,3 +72,28 @@ def test_the_frontier_map_within_a_box_is_the_whole_map_s_there(smoothing):
         assert np.array_equal(box, whole[rows[0]:rows[1], cols[0]:cols[1]]), (rows, cols)
     alone = frontier_map(prob[20:35, 30:52], prob_occ[20:35, 30:52], RES, smoothing=smoothing)
     assert not np.allclose(alone, whole[20:35, 30:52])
+
+
+def test_the_frontier_map_between_updates_is_the_whole_map_s():
+    """A map updated in a box at a time (a scan's reach), in one cell, at its edges, not at
+    all, then grown: after each update ``FrontierMap`` equals F of the whole map to the last
+    bit, and the arrays it gave before stay as they were."""
+    rng = np.random.default_rng(3)
+    prob = np.clip(rng.random((70, 90)) * 0.3 + (rng.random((70, 90)) < 0.4) * 0.5, 0.0, 1.0)
+    prob_occ = rng.random((70, 90))
+    frontier = FrontierMap(beta=2.5, smoothing=0.1)
+    given = []
+    updates = [(None, None), (slice(20, 35), slice(30, 52)), (slice(40, 41), slice(7, 8)),
+               (slice(0, 5), slice(80, 90)), (slice(60, 70), slice(0, 90)), (slice(0, 0), slice(0, 0))]
+    for rows, cols in updates:
+        if rows is not None:
+            prob[rows, cols] = rng.random(prob[rows, cols].shape)
+            prob_occ[rows, cols] = rng.random(prob[rows, cols].shape)
+        values = frontier(prob, prob_occ, RES, (0.0, 0.0))
+        assert np.array_equal(values, frontier_map(prob, prob_occ, RES, 2.5, 0.1))
+        given.append((values, values.copy()))
+    grown = np.pad(prob, ((0, 5), (3, 0)), constant_values=0.5)
+    grown_occ = np.pad(prob_occ, ((0, 5), (3, 0)), constant_values=0.5)
+    assert np.array_equal(frontier(grown, grown_occ, RES, (-0.3, 0.0)),
+                          frontier_map(grown, grown_occ, RES, 2.5, 0.1))
+    assert all(np.array_equal(values, kept) for values, kept in given)
