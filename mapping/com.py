@@ -248,7 +248,7 @@ class ContinuousOccupancyMap:
     def prob(self) -> np.ndarray:
         """(h, w) Λ: the COM, Λo and Λf fused by the BCM; 0.5 where unseen."""
         return self._fused(self._occ.precision, self._occ.weighted,
-                           self._free.precision, self._free.weighted)[0]
+                           self._free.precision, self._free.weighted)
 
     def snapshot(self) -> MapSnapshot:
         """Λ and Λo for the explorer (eq. 10 reads both)."""
@@ -257,8 +257,9 @@ class ContinuousOccupancyMap:
     def var(self) -> np.ndarray:
         """(h, w) variance of Λ; the larger prior variance where unseen."""
         prior = max(self.obstacle_.kernel.prior_var, self.free_.kernel.prior_var)
-        v = self._fused(self._occ.precision, self._occ.weighted,
-                        self._free.precision, self._free.weighted)[1]
+        precision = self._occ.precision + self._free.precision
+        with np.errstate(divide="ignore"):
+            v = np.where(precision > 0, 1.0 / precision, np.inf)
         return np.where(np.isfinite(v), v, prior)
 
     def observed_bounds(self) -> tuple[slice, slice]:
@@ -277,7 +278,7 @@ class ContinuousOccupancyMap:
         """(k,) Λ at flat cell indices of the map arrays."""
         o, f = self._occ, self._free
         return self._fused(o.precision.flat[flat], o.weighted.flat[flat],
-                           f.precision.flat[flat], f.weighted.flat[flat])[0]
+                           f.precision.flat[flat], f.weighted.flat[flat])
 
     def sample(self, grid: np.ndarray, xy: np.ndarray) -> np.ndarray:
         """Values of a map array (h, w) at world points ``xy`` (..., 2); 0.5 off the map."""
@@ -285,9 +286,11 @@ class ContinuousOccupancyMap:
 
     @staticmethod
     def _fused(po, wo, pf, wf):
+        """Λ of the BCM from each GP's precision and precision-weighted mean sums; not its
+        variance (``var``): Λ is read at every replan, and computing both doubled its cost."""
         C = po + pf
         with np.errstate(invalid="ignore", divide="ignore"):
-            return np.where(C > 0, (wo + wf) / C, 0.5), np.where(C > 0, 1.0 / C, np.inf)
+            return np.where(C > 0, (wo + wf) / C, 0.5)
 
     # ---------------------------------------------------------------- steps
     def _fit(self, hits: np.ndarray, free: np.ndarray) -> None:
