@@ -47,14 +47,20 @@ def frontier_map_within(prob: np.ndarray, prob_occ: np.ndarray, resolution: floa
     grids alone, equal to the whole map's there: computed on them and the margin the
     smoothing (scipy's reach, 4 σ) and the central differences read, the grids' own edges
     where the margin passes them."""
-    sigma = smoothing / resolution
-    margin = int(4.0 * sigma + 0.5) + 2 if smoothing > 0 else 2
+    margin = _reach(resolution, smoothing)
     h, w = np.shape(prob)
     y0, y1 = max(rows[0] - margin, 0), min(rows[1] + margin, h)
     x0, x1 = max(cols[0] - margin, 0), min(cols[1] + margin, w)
     values = frontier_map(np.asarray(prob)[y0:y1, x0:x1], np.asarray(prob_occ)[y0:y1, x0:x1],
                           resolution, beta, smoothing)
     return values[rows[0] - y0:rows[1] - y0, cols[0] - x0:cols[1] - x0]
+
+
+
+def _reach(resolution: float, smoothing: float) -> int:
+    """Cells from a cell of F to the farthest cell of Λ and Λo it reads: the smoothing's
+    (scipy's reach, 4 σ) and the central differences', with a cell to spare."""
+    return int(4.0 * smoothing / resolution + 0.5) + 2 if smoothing > 0 else 2
 
 
 class FrontierMap:
@@ -83,7 +89,7 @@ class FrontierMap:
             rows, cols = np.flatnonzero(changed.any(axis=1)), np.flatnonzero(changed.any(axis=0))
             if not len(rows):
                 return last[4]
-            reach = int(4.0 * self.smoothing / resolution + 0.5) + 2 if self.smoothing > 0 else 2
+            reach = _reach(resolution, self.smoothing)
             h, w = prob.shape
             y0, y1 = max(rows[0] - reach, 0), min(rows[-1] + reach + 1, h)
             x0, x1 = max(cols[0] - reach, 0), min(cols[-1] + reach + 1, w)
