@@ -28,9 +28,10 @@ class LogOddsConfig(BaseModel):
     l_max: float = Field(10.0, gt=0, description="clamp, high")
     max_range: float = Field(10.0, gt=0, description="m; hits beyond count as no return, "
                              "traced as free up to this range")
-    unmoved: float = Field(0.0, ge=0, description="meters: a regeneration keeps a keyframe where "
+    unmoved: float = Field(0.01, ge=0, description="meters: a regeneration keeps a keyframe where "
                            "it was traced when none of its rays' ends moved this far (0: only a "
-                           "keyframe whose pose is unchanged), and rebuilds only what the others reach")
+                           "keyframe whose pose is unchanged), and rebuilds only what the others reach; "
+                           "0.01 m, a laser's range noise, as the COM's drift.unmoved")
 
 
 #: A regeneration rebuilds the grid in tiles of this many cells a side.

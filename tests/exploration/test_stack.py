@@ -166,21 +166,22 @@ def test_small_correction_leaves_the_com_alone(scans, truth_com):
 
 
 def test_a_correction_that_withdraws_a_loop_regenerates_the_com_without_drift(scans, truth_com):
-    # the same 1 cm correction, but taking a false loop back out: the map may have been relearnt
-    # under it wherever the robot is not, and the drift check reads only where it maps
+    # a small correction (2 cm, past the 1 cm of ``drift.unmoved``), but taking a false loop
+    # back out: the map may have been relearnt under it wherever the robot is not, and the drift
+    # check reads only where it maps
     stack = Stack(StackConfig(**GIVEN, com=COM), planning=False)
-    stack.localiser = ScriptedLocaliser(TRUTH, gtsam.Pose2(0.01, 0.0, 0.0), withdrawn=1)
+    stack.localiser = ScriptedLocaliser(TRUTH, gtsam.Pose2(0.02, 0.0, 0.0), withdrawn=1)
     steps = run(stack, scans)
     assert [s.regenerated for s in steps] == [False] * CORRECTION + [True]
     assert stack.regenerations == 1
     np.testing.assert_array_equal(stack.map.prob(), truth_com.prob())
 
 
-@pytest.mark.parametrize("error", [gtsam.Pose2(0.4, 0.0, math.radians(3)), gtsam.Pose2(0.01, 0.0, 0.0)],
-                         ids=["40cm", "1cm"])
+@pytest.mark.parametrize("error", [gtsam.Pose2(0.4, 0.0, math.radians(3)), gtsam.Pose2(0.02, 0.0, 0.0)],
+                         ids=["40cm", "2cm"])
 def test_any_correction_regenerates_the_grid_from_the_corrected_poses(scans, error):
-    """A grid has no drift measure: any correction, even 1 cm, rebuilds it, and the rebuilt
-    grid is the one fed every scan at its corrected pose."""
+    """A grid has no drift measure: any correction, even 2 cm (past its 1 cm ``unmoved``),
+    rebuilds it, and the rebuilt grid is the one fed every scan at its corrected pose."""
     stack = Stack(GRID_CONFIG, planning=False)
     assert isinstance(stack.map, LogOddsGrid)
     stack.localiser = ScriptedLocaliser(TRUTH, error)
