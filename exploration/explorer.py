@@ -22,7 +22,7 @@ from scipy.spatial import cKDTree
 from exploration.costmap import CostmapConfig, driven, passable
 from exploration.follower import rest_of_path
 from exploration.frontier_methods import (CFrontier, DoorFrontier, Frontier, GridFrontier, MissedByF,
-                                          Reachable, evidence, look, within_reach)
+                                          Reachable, evidence)
 from exploration.goals import Blacklist, FrontierCluster, GoalConfig
 from exploration.paths import distance_field
 from mapping.occupancy import MapSnapshot
@@ -71,8 +71,7 @@ class Plan:
 
     ``goal`` (2,) and ``path`` (k, 2) are in meters; ``goal`` is None when exploration is
     over, and ``done`` then says why: ``frontiers_exhausted`` (no significant frontier left)
-    or ``no_reachable_goal`` (frontiers remain, none reachable); or the robot is to
-    ``look_round`` on the spot first, and plan again after. ``clusters`` are the ranked
+    or ``no_reachable_goal`` (frontiers remain, none reachable). ``clusters`` are the ranked
     frontier clusters of a new goal choice, and ``frontier`` the map it was made on: the
     C-frontier map F (gp), or 1 on the grid's frontier cells (grid); a plan that kept its goal
     has neither (empty, None).
@@ -82,7 +81,6 @@ class Plan:
     path: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     done: Done | None = None
     new_goal: bool = False
-    look_round: bool = False
     clusters: list[FrontierCluster] = field(default_factory=list)
     frontier: np.ndarray | None = None
 
@@ -109,15 +107,12 @@ class Explorer:
         self.goal: np.ndarray | None = None
         self.target: np.ndarray = np.zeros((0, 2))  # the frontier points the goal serves
         self.goals_chosen = 0
-        self.arrived = False                        # at the goal, not yet planned from there
         self.closed = np.zeros((0, 2))              # points of paths the robot could not follow
         self._rng = np.random.default_rng(seed)
 
     def reached(self) -> None:
-        """The robot arrived at the goal: the next ``plan`` chooses a new one, or first asks for
-        a look round (``shows_min_gain``)."""
+        """The robot arrived at the goal: the next ``plan`` chooses a new one."""
         self.goal = None
-        self.arrived = True
 
     def stuck(self, here: np.ndarray, path: np.ndarray) -> None:
         """The robot at ``here`` (2,) could not follow ``path`` (k, 2): the stretch of it from
@@ -157,9 +152,6 @@ class Explorer:
                 return Plan(self.goal, reachable.path(self.goal))
         reachable = self._reachable(snapshot, pose, costmap)
         frontier = self.method.frontier(snapshot)
-        arrived, self.arrived = self.arrived, False
-        if arrived and self.shows_min_gain(frontier, reachable):
-            return Plan(None, look_round=True)
         if self.goal is not None and not local:
             source = (frontier if self.source is self.method
                       else self.source.keeping(snapshot, self._targets(), self.config.goals.reach))
@@ -169,16 +161,6 @@ class Explorer:
         if plan.done == "no_reachable_goal" and self._reopen(snapshot):
             plan = self._choose(snapshot, frontier, self._reachable(snapshot, pose, costmap))
         return plan
-
-    def shows_min_gain(self, frontier: Frontier, reachable: Reachable) -> bool:
-        """Would a look round from where the robot stands show ``min_gain``, as a goal's look
-        must (``significant``)? The goal was chosen for such a look, but the laser sees the half
-        circle it faced on the way: the rest of that look, to the robot's sides and back, is
-        what leads the next goal a step along the same unseen face (the cave's GP run chose
-        7 goals in a row along one block's face, each showing a little more of it)."""
-        c = self.config
-        reached = within_reach(frontier, reachable, c.robot_radius, self.method.costmap)
-        return look(reached, reachable, reachable.here, c, self.method.costmap) >= c.min_gain
 
     def _reopen(self, snapshot: MapSnapshot) -> bool:
         """Reopen the closed stretches on the robot's trail (within two cells of it), when no

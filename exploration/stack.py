@@ -112,7 +112,7 @@ class Stack:
         self.navigator = (Navigator(c.navigation, *speed_limits, c.explorer.robot_radius)
                           if planning else None)
         self.plan: Plan | None = None
-        self.scans = self.regenerations = self.goals_abandoned = self.looks_round = 0
+        self.scans = self.regenerations = self.goals_abandoned = 0
         self._mapped: list[tuple[int, LaserScan]] = []   # (scan index, scan) in the map
         self._since_plan = 0
         self._looked_round = True    # the initial spin is the first look round
@@ -182,13 +182,9 @@ class Stack:
                 self.explorer.stuck(np.array([here.pose.x(), here.pose.y()]), self.plan.path)
                 self.goals_abandoned += 1
             out.plan = self.replan(here.pose)
-            if self.plan.look_round:            # the laser saw the half it faced on the way
-                self._looked_round = True
-                self.looks_round += 1
-                self.navigator.spin(stamp)
             command = self.navigator.command(here.pose, self.plan, stamp, obstacles)
         out.command = command
-        if self.plan.goal is None and not self.navigator.spinning(stamp):
+        if self.plan.goal is None and not spinning:
             if not self._looked_round:          # the laser sees half the circle: look once more
                 self._looked_round = True
                 self.navigator.spin(stamp)

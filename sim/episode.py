@@ -372,7 +372,6 @@ def _metrics(result: EpisodeResult, evaluator: Evaluator, robot: Robot, seed: in
         "regenerations": stack.regenerations,
         "goals": stack.explorer.goals_chosen,
         "goals_abandoned": stack.goals_abandoned,
-        "looks_round": stack.looks_round,
         "final_map_entropy_nats": float(curve[-1, 3]),
         "entropy_rate_nats_per_step": float((curve[-1, 3] - curve[0, 3]) / max(steps, 1)),
         "coverage": float(curve[-1, 2]),

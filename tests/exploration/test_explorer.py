@@ -320,26 +320,6 @@ def test_a_look_counts_only_unknown_space_the_robot_could_drive_into():
         assert 0.9 * alone < counted < alone if door else counted == 0.0
 
 
-def test_a_goal_reached_where_a_look_round_still_shows_min_gain_asks_for_that_look_first():
-    """The laser sees the half circle it faced on the way to a goal. Arrived before the open
-    door (x = 7.7 m; past the door lie metres of unknown space the robot could drive into, far
-    more than the 1 m² of ``min_gain``), the explorer asks for a look round before it chooses
-    again, and chooses on the plan after. Arrived in the room whose door leads into a walled-in
-    closet (no unknown space left to see), it looks round no more and the run is over."""
-    config = ExplorerConfig()
-    at = gtsam.Pose2(7.7, 4.0, 0.0)
-    explorer = Explorer(config)
-    assert explorer.plan(one_opening(), ROBOT).new_goal
-    explorer.reached()
-    first = explorer.plan(one_opening(), at)
-    assert first.look_round and first.goal is None and first.done is None
-    after = explorer.plan(one_opening(), at)
-    assert not after.look_round and after.goal is not None and after.new_goal
-    explorer.reached()
-    over = explorer.plan(explored_opening(), at)
-    assert not over.look_round and over.goal is None and over.done == "frontiers_exhausted"
-
-
 def test_a_look_is_computed_again_only_where_the_map_it_reads_changed(monkeypatch):
     """Looks are kept by what they read (``_Looks``). The same look on the same map is computed
     once. Past the door, a look sees 1 m² or more; once the space past it is walled in (a

