@@ -112,7 +112,7 @@ class Stack:
         self.navigator = (Navigator(c.navigation, *speed_limits, c.explorer.robot_radius)
                           if planning else None)
         self.plan: Plan | None = None
-        self.scans = self.regenerations = self.goals_abandoned = 0
+        self.scans = self.regenerations = self.costmap_regenerations = self.goals_abandoned = 0
         self._mapped: list[tuple[int, LaserScan]] = []   # (scan index, scan) in the map
         self._since_plan = 0
         self._looked_round = True    # the initial spin is the first look round
@@ -134,6 +134,9 @@ class Stack:
         if here.corrected and self._drifted(here):                           # drift check
             self.regenerate()
             out.regenerated = True
+        elif here.corrected and self.mapping == "online" and self.costmap not in (None, self.map):
+            self.costmap.regenerate(self.mapped_scans())   # the planner's hits follow every correction
+            self.costmap_regenerations += 1
         if self.explorer is not None:
             self._navigate(here, scan, out)                                  # plan and drive
         return out

@@ -370,6 +370,7 @@ def _metrics(result: EpisodeResult, evaluator: Evaluator, robot: Robot, seed: in
         "keyframes": stack.keyframes,
         "loop_closures": stack.loops,
         "regenerations": stack.regenerations,
+        "costmap_regenerations": stack.costmap_regenerations,
         "goals": stack.explorer.goals_chosen,
         "goals_abandoned": stack.goals_abandoned,
         "final_map_entropy_nats": float(curve[-1, 3]),
