@@ -168,7 +168,7 @@ def test_small_correction_leaves_the_com_alone(scans, truth_com):
     assert not same(stack.map.prob(), truth.prob())
 
 
-def test_a_correction_under_the_coms_drift_still_rebuilds_the_planners_grid(scans, truth_com):
+def test_a_correction_under_the_coms_drift_still_rebuilds_the_planners_grid(scans):
     """The planner reads its clearance off the costmap grid's hits, a centimetre scale (a door
     0.04 m wider than the robot): they follow every correction, as the grid method's map does,
     while the COM waits for its drift check. 2 cm: past the grid's 1 cm ``unmoved``."""
