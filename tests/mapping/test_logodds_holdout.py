@@ -31,6 +31,31 @@ def test_grid_frees_the_cells_a_beam_crosses_and_occupies_its_hit_cell():
     assert grid.logodds.max() == pytest.approx(10.0) and grid.logodds.min() == pytest.approx(-10.0)
 
 
+def test_a_trace_marks_the_cells_of_its_half_cell_samples_and_a_hit_cell_only_as_hit():
+    """Rays from a point in a negative cell: each frees the cells holding its samples every
+    half cell or less (i / n of it, n = ceil(length / 0.05)), not its hit cell, which another
+    ray crosses; the tiles are those of both, the bounds their box."""
+    grid = LogOddsGrid(LogOddsConfig(resolution=0.1))
+    origin = np.array([-0.37, 0.21])
+    ends = origin + np.array([[1.23, 0.0], [0.4, 0.3], [-2.1, -1.7], [0.61, 0.0], [0.0, 0.0]])
+    is_hit = np.array([True, True, False, True, True])
+    traced, free, hit = grid._trace(origin, ends, is_hit, None)
+    samples = []
+    for end in ends:
+        n = max(int(np.ceil(np.linalg.norm(end - origin) / 0.05)), 1)
+        samples += [origin + i / n * (end - origin) for i in range(n)]
+    hit_cells = {tuple(c) for c in np.floor(ends[is_hit] / 0.1).astype(int)}
+    sampled = {tuple(c) for c in np.floor(np.array(samples) / 0.1).astype(int)}
+    assert (2, 2) in sampled & hit_cells                     # the 0.61 m ray's end, crossed by the first
+    assert {tuple(c) for c in key_cells(hit)} == hit_cells
+    assert {tuple(c) for c in key_cells(free)} == sampled - hit_cells
+    assert np.all(np.diff(free) > 0) and np.all(np.diff(hit) > 0)
+    every = np.array(sorted(sampled | hit_cells))
+    assert {tuple(c) for c in key_cells(traced.tiles)} == {tuple(c) for c in every // TILE}
+    assert np.all(np.diff(traced.tiles) > 0)
+    assert np.array_equal(traced.bounds[0], every.min(axis=0)) and np.array_equal(traced.bounds[1], every.max(axis=0))
+
+
 def test_grid_hits_are_every_update_s_hit_one_per_half_cell_in_views_that_never_change():
     """Each update marks its hits one per half cell (0.05 m voxel): 360 beams ending 5.2 cm
     apart on a circle of radius 3 m (18.8 m long; a voxel spans at most 7.1 cm of it) give
