@@ -89,7 +89,10 @@ def _ray_cells(origin, ends, is_hit, step, resolution, tile):
     t0x, t0y = lo[0] // tile, lo[1] // tile
     tw = hi[0] // tile - t0x + 1
     tiles = np.zeros(((hi[1] // tile - t0y + 1) * tw), np.bool_)
-    free, hit = np.empty(h * w, np.int64), np.empty(h * w, np.int64)
+    nh = 0
+    for f in range(marked.size):
+        nh += marked[f] == 2
+    free, hit = np.empty(np.count_nonzero(marked) - nh, np.int64), np.empty(nh, np.int64)
     seen_lo, seen_hi = hi.copy(), lo.copy()
     nf = nh = 0
     for f in range(marked.size):
@@ -108,7 +111,7 @@ def _ray_cells(origin, ends, is_hit, step, resolution, tile):
         seen_hi[0], seen_hi[1] = max(seen_hi[0], cx), max(seen_hi[1], cy)
     at = np.flatnonzero(tiles)
     tile_keys = ((at // tw + t0y) << 32) + (at % tw + t0x + (1 << 31))
-    return free[:nf].copy(), hit[:nh].copy(), tile_keys, seen_lo, seen_hi
+    return free, hit, tile_keys, seen_lo, seen_hi
 
 
 class LogOddsGrid:
