@@ -116,6 +116,7 @@ class Stack:
         self._mapped: list[tuple[int, LaserScan]] = []   # (scan index, scan) in the map
         self._since_plan = 0
         self._looked_round = True    # the initial spin is the first look round
+        self._stale = False          # corrections the map was not relearnt under (``_navigate``)
 
     def step(self, odometry: gtsam.Pose2 | None, scan: LaserScan,
              truth: gtsam.Pose2 | None = None) -> StackStep:
@@ -134,9 +135,11 @@ class Stack:
         if here.corrected and self._drifted(here):                           # drift check
             self.regenerate()
             out.regenerated = True
-        elif here.corrected and self.mapping == "online" and self.costmap not in (None, self.map):
-            self.costmap.regenerate(self.mapped_scans())   # the planner's hits follow every correction
-            self.costmap_regenerations += 1
+        elif here.corrected and self.mapping == "online":
+            self._stale = True
+            if self.costmap not in (None, self.map):
+                self.costmap.regenerate(self.mapped_scans())   # the planner's hits follow every correction
+                self.costmap_regenerations += 1
         if self.explorer is not None:
             self._navigate(here, scan, out)                                  # plan and drive
         return out
@@ -170,7 +173,11 @@ class Stack:
         reached or abandoned, and before stopping, so that the stop is decided on the current
         map), then command the robot along the plan's path, kept off the scan's hits. Before
         stopping, the robot turns once on the spot if it has not since its last goal: what lies
-        behind it may open a way (a corridor it drove into) or close the frontier."""
+        behind it may open a way (a corridor it drove into) or close the frontier. And a map
+        that corrections under its drift check left where the scans were fused is relearnt at
+        their corrected poses, and the stop decided on that: the drift is measured only where
+        the robot maps, and office_g's GP run (seed 1) ended with a wall of the COM 0.45 m
+        inside a room it had left, a strip of the room unknown behind it."""
         stamp, obstacles = scan.timestamp, transform(self.laser_offset, scan.points())
         self._since_plan += here.keyframe is not None
         spinning = self.navigator.spinning(stamp)
@@ -193,6 +200,13 @@ class Stack:
                 self.navigator.spin(stamp)
                 out.command = self.navigator.command(here.pose, self.plan, stamp, obstacles)
                 return
+            if self._stale:
+                self.regenerate()
+                out.regenerated = True
+                out.plan = self.replan(here.pose)
+                out.command = self.navigator.command(here.pose, self.plan, stamp, obstacles)
+                if self.plan.goal is not None:
+                    return
             out.done = self.plan.done
 
     def replan(self, pose: gtsam.Pose2) -> Plan:
@@ -226,6 +240,7 @@ class Stack:
         if self.costmap is not None and self.costmap is not self.map:
             self.costmap.regenerate(scans)
         self.regenerations += 1
+        self._stale = False
 
     def final_map(self) -> OccupancyMap:
         """Learn the map once from every mapped scan at its final pose (``mapping="final"``)."""

@@ -353,3 +353,56 @@ def test_closed_loop_in_a_closed_room_spins_then_is_done(config):
     assert_spins_for_four_seconds(steps)
     for s in steps[8:]:
         assert s.command.v == 0.0 and s.command.w == 0.0 and s.done == "frontiers_exhausted"
+
+
+class CorrectedOnce:
+    """Every scan at ``truth``, but the second (the second keyframe, mapped) localised at
+    ``error`` composed with it, until the next scan closes a loop that moves it to ``truth``."""
+
+    def __init__(self, truth: gtsam.Pose2, error: gtsam.Pose2):
+        self.truth, self.error = truth, error
+        self.keyframe_scans, self._poses = [], []
+
+    def step(self, odometry, scan, given=None) -> Localisation:
+        i = len(self._poses)
+        self._poses.append(self.error.compose(self.truth) if i == 1 else self.truth)
+        if i < 2:
+            self.keyframe_scans.append(scan)
+            return Localisation(self._poses[i], i)
+        if i == 2:
+            self._poses[1] = self.truth
+            return Localisation(self.truth, loops=[(0, 1)], moved=0.1, corrected=True)
+        return Localisation(self.truth)
+
+    def pose(self, i: int) -> gtsam.Pose2:
+        return self._poses[i]
+
+    def positions(self, indices) -> np.ndarray:
+        return np.array([[self._poses[i].x(), self._poses[i].y()] for i in indices]).reshape(-1, 2)
+
+    def keyframe_poses(self) -> list[gtsam.Pose2]:
+        return self._poses[:2]
+
+    def loop_pairs(self) -> np.ndarray:
+        return np.zeros((0, 2), int)
+
+
+def test_a_map_left_where_its_scans_were_fused_is_relearnt_before_the_stop():
+    """The room's second keyframe is fused 0.1 m off, and a loop then moves it back, under the
+    COM's drift check (no later keyframe measures any drift): the stop is decided on the map
+    relearnt at the corrected pose, and the run ends with that map, not the one it fused."""
+    config = StackConfig(**GIVEN, com=COMConfig(training={"free_step": 0.1, "free_voxel": 0.1}))
+    scan = Lidar(LidarConfig(fov_deg=360, beams=720), seed=0).scan(room_with_door(False), ROBOT, 0.0)
+    stack = Stack(config)
+    stack.localiser = CorrectedOnce(ROBOT, gtsam.Pose2(0.1, 0.0, 0.0))
+    steps = [stack.step(None, dataclasses.replace(scan, timestamp=0.5 * k)) for k in range(8)]
+    assert not any(s.regenerated or s.done for s in steps)          # the spin: the COM as fused
+    fused = fed(ContinuousOccupancyMap(config.com), [ROBOT, gtsam.Pose2(0.1, 0, 0).compose(ROBOT)], [scan] * 2)
+    np.testing.assert_array_equal(stack.map.prob(), fused.prob())
+    steps += [stack.step(None, dataclasses.replace(scan, timestamp=0.5 * k)) for k in (8, 9)]
+    assert steps[8].regenerated and steps[8].done == "frontiers_exhausted"
+    assert stack.regenerations == 1 and stack.costmap_regenerations == 1
+    at_truth = fed(ContinuousOccupancyMap(config.com), [ROBOT] * 2, [scan] * 2)
+    np.testing.assert_array_equal(stack.map.prob(), at_truth.prob())
+    assert not same(fused.prob(), at_truth.prob())
+    assert not steps[9].regenerated and steps[9].done == "frontiers_exhausted"
