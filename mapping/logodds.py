@@ -56,6 +56,18 @@ class _Traced:
 _AROUND = np.array([(dx, dy) for dy in (-1, 0, 1) for dx in (-1, 0, 1)])
 
 
+@numba.njit(cache=True, inline="always")
+def _cell(x, resolution):
+    """``GridFrame.cells`` of one coordinate."""
+    return np.int64(np.floor(x / resolution))
+
+
+@numba.njit(cache=True, inline="always")
+def _key(cx, cy):
+    """``mapping.grid.cell_key`` of one cell."""
+    return (cy << 32) + (cx + (1 << 31))
+
+
 @numba.njit(cache=True)
 def _ray_cells(origin, ends, is_hit, step, resolution, tile):
     """The cells of rays from ``origin`` (2,) to ``ends`` (k, 2), as sorted ``cell_key``s:
@@ -65,11 +77,11 @@ def _ray_cells(origin, ends, is_hit, step, resolution, tile):
     and greatest cells (2,) of both. Marked on a bitmap of the rays' box and read back row by
     row, in key order: sorting a scan's 30 000 samples in numpy was most of a regeneration's
     tracing."""
-    lo = np.array([np.floor(origin[0] / resolution), np.floor(origin[1] / resolution)]).astype(np.int64)
+    lo = np.array([_cell(origin[0], resolution), _cell(origin[1], resolution)])
     hi = lo.copy()
     for r in range(ends.shape[0]):      # every sample lies in the box of its ray's ends
         for a in range(2):
-            c = np.int64(np.floor(ends[r, a] / resolution))
+            c = _cell(ends[r, a], resolution)
             lo[a], hi[a] = min(lo[a], c), max(hi[a], c)
     w, h = hi[0] - lo[0] + 1, hi[1] - lo[1] + 1
     marked = np.zeros(h * w, np.uint8)          # 1 freed, 2 hit
@@ -78,13 +90,12 @@ def _ray_cells(origin, ends, is_hit, step, resolution, tile):
         n = max(int(np.ceil(np.hypot(dx, dy) / step)), 1)
         for i in range(n):
             t = i / n
-            cx = np.int64(np.floor((origin[0] + t * dx) / resolution))
-            cy = np.int64(np.floor((origin[1] + t * dy) / resolution))
+            cx, cy = _cell(origin[0] + t * dx, resolution), _cell(origin[1] + t * dy, resolution)
             f = (cy - lo[1]) * w + (cx - lo[0])
             marked[f] = max(marked[f], 1)
     for r in range(ends.shape[0]):
         if is_hit[r]:
-            cx, cy = np.int64(np.floor(ends[r, 0] / resolution)), np.int64(np.floor(ends[r, 1] / resolution))
+            cx, cy = _cell(ends[r, 0], resolution), _cell(ends[r, 1], resolution)
             marked[(cy - lo[1]) * w + (cx - lo[0])] = 2
     t0x, t0y = lo[0] // tile, lo[1] // tile
     tw = hi[0] // tile - t0x + 1
@@ -99,7 +110,7 @@ def _ray_cells(origin, ends, is_hit, step, resolution, tile):
         if marked[f] == 0:
             continue
         cx, cy = f % w + lo[0], f // w + lo[1]
-        key = (cy << 32) + (cx + (1 << 31))
+        key = _key(cx, cy)
         if marked[f] == 1:
             free[nf] = key
             nf += 1
@@ -110,8 +121,7 @@ def _ray_cells(origin, ends, is_hit, step, resolution, tile):
         seen_lo[0], seen_lo[1] = min(seen_lo[0], cx), min(seen_lo[1], cy)
         seen_hi[0], seen_hi[1] = max(seen_hi[0], cx), max(seen_hi[1], cy)
     at = np.flatnonzero(tiles)
-    tile_keys = ((at // tw + t0y) << 32) + (at % tw + t0x + (1 << 31))
-    return free, hit, tile_keys, seen_lo, seen_hi
+    return free, hit, _key(at % tw + t0x, at // tw + t0y), seen_lo, seen_hi
 
 
 class LogOddsGrid:
