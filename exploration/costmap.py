@@ -105,37 +105,102 @@ def _clear(free: np.ndarray, occupied: np.ndarray, resolution: float, radius: fl
     hits alone, without the trail."""
     offset = np.zeros(free.shape + (2,))
     clear = radius + config.margin
-    room = free & ~_within(~free & ~occupied, resolution, config.unknown_clearance)
+    near_unknown = _disc_offsets(resolution, config.unknown_clearance)
     to_occupied = np.zeros(free.shape)
     if hits is None:
         to_occupied = _distance_to(occupied, resolution) - resolution / 2
     elif not len(hits):
         to_occupied[free] = np.inf
     if hits is None or not len(hits):
+        room = np.zeros_like(free)
+        _rooms(free, occupied, near_unknown, room)
         return room & (to_occupied > clear), wall_cost(to_occupied, radius, config), offset
     bound = max(config.preferred_clearance, clear + resolution)
     origin = np.asarray(origin, float)
     hits = np.asarray(hits, float)
     # past ``clear`` the clearance only sets the wall cost, flat when near_wall_cost is 0
-    to_occupied = np.where(free, distance_to_points(
-        hits, origin, resolution, free.shape, bound if config.near_wall_cost > 0 else clear), 0.0)
-    ok = room & (to_occupied > clear)
+    squared = _SCATTERED.squared(hits.reshape(-1, 2), origin, resolution, free.shape,
+                                 bound if config.near_wall_cost > 0 else clear)
     # cells whose centre is not clear, but a point of which may be (clearance is 1-Lipschitz),
     # where they could join two regions of centre-clear cells: searched for that point
-    maybe = room & ~ok & (to_occupied > clear - config.squeeze - resolution / math.sqrt(2))
+    ok, index = np.empty_like(free), np.empty(free.shape, np.int64)
+    maybe = _split(free, occupied, near_unknown, squared, clear, clear - config.squeeze - resolution / math.sqrt(2),
+                   to_occupied, ok, index)
     rooms, _ = ndimage.label(ok, structure=_EIGHT)
-    iy, ix = np.nonzero(maybe & _links(rooms, maybe))
+    linking = _links(rooms, index, maybe, np.ones(len(maybe), np.bool_))
+    iy, ix = maybe[linking] // free.shape[1], maybe[linking] % free.shape[1]
     shift, clearance = clearest_points(hits, origin, resolution, free.shape, np.column_stack([ix, iy]),
                                        bound)
     to_occupied[iy, ix] = clearance
+    clear_off_centre = np.zeros(len(maybe), np.bool_)
+    clear_off_centre[linking] = clearance > clear - config.squeeze
+    through = _links(rooms, index, maybe, clear_off_centre)[linking]
     off_centre = np.zeros_like(ok)
-    off_centre[iy, ix] = clearance > clear - config.squeeze
-    off_centre &= _links(rooms, off_centre)
-    through = off_centre[iy, ix]
+    off_centre[iy[through], ix[through]] = True
     offset[iy[through], ix[through]] = shift[through]
     cost = wall_cost(to_occupied, radius, config)
     cost[off_centre] *= config.off_centre_cost
     return ok | off_centre, cost, offset
+
+
+def _disc_offsets(resolution: float, distance: float) -> np.ndarray:
+    """(k, 2) (dx, dy) cell offsets whose centres lie within ``distance`` meters of a cell's."""
+    r = int(math.floor(distance / resolution))
+    yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
+    disc = np.sqrt((yy * resolution) ** 2 + (xx * resolution) ** 2) <= distance
+    return np.column_stack([xx[disc], yy[disc]]).astype(np.int64)
+
+
+@numba.njit(cache=True, inline="always")
+def _in_room(free, occupied, near_unknown, iy, ix):
+    """Is the free cell (iy, ix) farther than the ``near_unknown`` offsets from every unknown
+    cell (neither free nor occupied; off the map counts as one)?"""
+    h, w = free.shape
+    for k in range(near_unknown.shape[0]):
+        y, x = iy + near_unknown[k, 1], ix + near_unknown[k, 0]
+        if y < 0 or x < 0 or y >= h or x >= w or not (free[y, x] or occupied[y, x]):
+            return False
+    return True
+
+
+@numba.njit(cache=True)
+def _rooms(free, occupied, near_unknown, room):
+    """Mark in ``room`` (h, w) the free cells farther than the ``near_unknown`` offsets (a
+    disc, ``_disc_offsets``) from every unknown cell."""
+    h, w = free.shape
+    for iy in range(h):
+        for ix in range(w):
+            room[iy, ix] = free[iy, ix] and _in_room(free, occupied, near_unknown, iy, ix)
+
+
+@numba.njit(cache=True)
+def _split(free, occupied, near_unknown, squared, clear, low, to_occupied, ok, index):
+    """One pass over the grid: ``to_occupied`` (h, w) the clearance of each free cell (the
+    square root of ``squared``, the hits' squared distance field; 0 elsewhere), ``ok`` the
+    cells of a room (``_rooms``) clearer than ``clear`` at their centre, and the flat indices,
+    in row-major order, of the room's other cells clearer than ``low`` (returned; ``index``
+    (h, w) holds each one's place in them, -1 at every other cell)."""
+    h, w = free.shape
+    maybe = np.empty(h * w, np.int64)
+    n = 0
+    for iy in range(h):
+        for ix in range(w):
+            index[iy, ix] = -1
+            ok[iy, ix] = False
+            if not free[iy, ix]:
+                to_occupied[iy, ix] = 0.0
+                continue
+            d = math.sqrt(squared[iy, ix])
+            to_occupied[iy, ix] = d
+            if not _in_room(free, occupied, near_unknown, iy, ix):
+                continue
+            if d > clear:
+                ok[iy, ix] = True
+            elif d > low:
+                index[iy, ix] = n
+                maybe[n] = iy * w + ix
+                n += 1
+    return maybe[:n].copy()
 
 
 _EIGHT = np.ones((3, 3), dtype=bool)
@@ -225,39 +290,63 @@ def _scatter_distances(points, x0, y0, resolution, bound, d2):
                     d2[iy, ix] = dd
 
 
-def _links(rooms: np.ndarray, between: np.ndarray) -> np.ndarray:
-    """(h, w) bool: the 8-connected groups of ``between`` cells that touch two or more of the
+def _links(rooms: np.ndarray, index: np.ndarray, cells: np.ndarray, among: np.ndarray) -> np.ndarray:
+    """(n,) bool: which of ``cells`` (n,), flat indices of cells of the (h, w) grid (``index``
+    (h, w) holds the place in them of each cell that is one, -1 elsewhere), lie in an
+    8-connected group of the cells flagged ``among`` (n,) that touches two or more of the
     ``rooms`` (h, w), labels of the 8-connected groups of some cells (0: none): passages (a
-    door whose clear span holds no cell centre), not the rim of one room along its walls."""
-    link, n = ndimage.label(between, structure=_EIGHT)
-    if n == 0:
-        return np.zeros_like(between)
-    iy, ix = np.nonzero(between)
-    return _two_rooms(link, rooms, iy, ix, n)[link]
+    door whose clear span holds no cell centre), not the rim of one room along its walls.
+    The groups are found among the cells alone, not over the grid."""
+    return _two_rooms(rooms, index, np.ascontiguousarray(cells, np.int64), np.ascontiguousarray(among, np.bool_))
 
 
 @numba.njit(cache=True)
-def _two_rooms(link, rooms, iy, ix, n):
-    """(n + 1,) bool: which of the ``n`` groups of ``link`` (h, w) labels (0: none), whose
-    cells are (``iy``, ``ix``), have cells of two different ``rooms`` (h, w) labels (0: none)
-    among their cells' 8 neighbours: each group's first room, then any other ends it. A sort of
-    every (group, room) pair beside one another took a quarter of office_g's costmaps."""
-    h, w = link.shape
-    first = np.zeros(n + 1, np.int64)
-    two = np.zeros(n + 1, np.bool_)
-    for k in range(iy.shape[0]):
-        group = link[iy[k], ix[k]]
+def _root(parent, k):
+    while parent[k] != k:
+        parent[k] = parent[parent[k]]
+        k = parent[k]
+    return k
+
+
+@numba.njit(cache=True)
+def _two_rooms(rooms, index, cells, among):
+    """``_links``: the groups joined by union-find over each cell's neighbours, then each
+    group's first room, and any other room ends it."""
+    h, w = rooms.shape
+    n = cells.shape[0]
+    parent = np.arange(n)
+    for k in range(n):
+        if not among[k]:
+            continue
+        iy, ix = cells[k] // w, cells[k] % w
+        for y in range(max(iy - 1, 0), min(iy + 2, h)):
+            for x in range(max(ix - 1, 0), min(ix + 2, w)):
+                j = index[y, x]
+                if j >= 0 and among[j]:
+                    a, b = _root(parent, k), _root(parent, j)
+                    if a != b:
+                        parent[max(a, b)] = min(a, b)
+    first = np.zeros(n, np.int64)
+    two = np.zeros(n, np.bool_)
+    for k in range(n):
+        if not among[k]:
+            continue
+        group = _root(parent, k)
         if two[group]:
             continue
-        for y in range(max(iy[k] - 1, 0), min(iy[k] + 2, h)):
-            for x in range(max(ix[k] - 1, 0), min(ix[k] + 2, w)):
+        iy, ix = cells[k] // w, cells[k] % w
+        for y in range(max(iy - 1, 0), min(iy + 2, h)):
+            for x in range(max(ix - 1, 0), min(ix + 2, w)):
                 room = rooms[y, x]
                 if room > 0:
                     if first[group] == 0:
                         first[group] = room
                     elif first[group] != room:
                         two[group] = True
-    return two
+    out = np.zeros(n, np.bool_)
+    for k in range(n):
+        out[k] = among[k] and two[_root(parent, k)]
+    return out
 
 
 def clearest_points(points: np.ndarray, origin, resolution: float, shape: tuple[int, int],
@@ -503,17 +592,6 @@ def wall_cost(to_occupied: np.ndarray, radius: float, config: CostmapConfig) -> 
     closest = radius + config.margin
     span = max(config.preferred_clearance - closest, 1e-9)
     return 1.0 + config.near_wall_cost * np.clip((config.preferred_clearance - to_occupied) / span, 0, 1)
-
-
-def _within(mask: np.ndarray, resolution: float, distance: float) -> np.ndarray:
-    """(h, w) bool: cells whose centre lies within ``distance`` meters of the centre of a cell
-    of ``mask`` (off the map counts), ``_distance_to(mask) <= distance`` by a dilation with
-    that disc: a few cells, where the distance transform reads the whole map."""
-    r = int(math.floor(distance / resolution))
-    yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
-    disc = np.sqrt((yy * resolution) ** 2 + (xx * resolution) ** 2) <= distance
-    padded = np.pad(mask, 1, constant_values=True)
-    return ndimage.binary_dilation(padded, disc)[1:-1, 1:-1]
 
 
 def _distance_to(mask: np.ndarray, resolution: float) -> np.ndarray:

@@ -8,7 +8,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from exploration import costmap
-from exploration.costmap import (CostmapConfig, _within, classify, clearest_points, distance_to_points,
+from exploration.costmap import (CostmapConfig, _disc_offsets, _rooms, classify, clearest_points, distance_to_points,
                                   driven, passable)
 from exploration.explorer import Explorer, ExplorerConfig
 from exploration.grid_frontier import grid_frontiers
@@ -268,15 +268,19 @@ def test_clearest_points_search_again_only_the_cells_new_hits_fall_within_reach_
 
 
 @pytest.mark.parametrize("resolution, distance", [(0.1, 0.0), (0.1, 0.1), (0.1, 0.25), (0.05, 0.3)])
-def test_within_is_the_distance_transform_thresholded(resolution, distance):
-    """Cells within ``distance`` of a mask cell (off the map counting as one), by dilation,
-    against scipy's Euclidean distance transform of the padded map."""
-    mask = np.random.default_rng(7).random((23, 31)) < 0.03
-    edt = ndimage.distance_transform_edt(np.pad(~mask, 1, constant_values=False),
+def test_a_room_is_the_free_space_beyond_the_distance_from_unknown_cells(resolution, distance):
+    """The free cells farther than ``distance`` from every unknown cell (off the map counting
+    as one), against scipy's Euclidean distance transform of the padded map."""
+    rng = np.random.default_rng(7)
+    free = rng.random((23, 31)) < 0.9
+    occupied = ~free & (rng.random((23, 31)) < 0.7)
+    unknown = ~free & ~occupied
+    edt = ndimage.distance_transform_edt(np.pad(~unknown, 1, constant_values=False),
                                          sampling=resolution)[1:-1, 1:-1]
-    within = _within(mask, resolution, distance)
-    assert np.array_equal(within, edt <= distance)
-    assert (~within).any() and (within & ~mask).any() == (distance >= resolution)
+    room = np.zeros_like(free)
+    _rooms(free, occupied, _disc_offsets(resolution, distance), room)
+    assert np.array_equal(room, free & (edt > distance))
+    assert room.any() and (free & ~room).any() == (distance >= resolution)
 
 
 def test_bad_thresholds_are_rejected():
