@@ -390,6 +390,18 @@ def test_driven_cells_are_those_the_trail_crosses_at_their_nearest_point():
     assert len(driven(np.zeros((1, 2)), 0.1, (0.0, 0.0), (50, 80))[0]) == 0
 
 
+def test_a_cell_passed_twice_as_near_is_at_the_point_driven_first():
+    """0.5 m cells: out along y = 1.125 m from x = 1.0 to 2.0 m, then back along y = 0.875 m,
+    a quarter cell each side of the row of centres at y = 1.0 m (binary-exact, so the two
+    passes are exactly as near): cells (2, 2) and (3, 2) keep the pass driven first; cell
+    (4, 2) is crossed at its centre by the step between the passes."""
+    out, back = [[1.0, 1.125], [2.0, 1.125]], [[2.0, 0.875], [1.0, 0.875]]
+    for trail, first in ((out + back, 0.125), (back[::-1] + out[::-1], -0.125)):
+        cells, offset = driven(np.array(trail), 0.5, (0.0, 0.0), (10, 10))
+        np.testing.assert_array_equal(cells, [[2, 2], [3, 2], [4, 2]])
+        np.testing.assert_array_equal(offset, [[0.0, first], [0.0, first], [0.0, 0.0]])
+
+
 def test_a_trail_on_a_diagonal_is_a_way_for_paths():
     """A corridor of free cells too narrow for the costmap's clearance (0.3 m) on the 45° line
     between two open squares, driven from (0.55, 0.55) to (2.55, 2.55) m through the corners
