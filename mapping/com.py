@@ -24,6 +24,7 @@ from mapping.grid import GridFrame, box, cell_key, key_cells, unique_keys
 from mapping.kernels import Kernel
 from mapping.localgp import predict_blocks
 from mapping.occupancy import MapSnapshot
+from mapping.refreshed import Refreshed
 from mapping.regeneration import moved, reframed, replayed_frame, tile_mask, touches
 from mapping.squash import squash
 from mapping.training import BeamSamples, beam_samples, voxel_thin
@@ -97,6 +98,10 @@ class ContinuousOccupancyMap:
         d = c.drift
         self.drift = DriftMonitor(d.threshold, d.factor, d.window, d.floor, d.warmup)
         self._rng = np.random.default_rng(c.seed)
+        # Λ and Λo as the planner reads them, computed again only where keyframes were fused
+        self._prob = Refreshed(lambda box: self._fused(self._occ.precision[box], self._occ.weighted[box],
+                                                       self._free.precision[box], self._free.weighted[box]))
+        self._prob_occ = Refreshed(lambda box: self._occ.mean(box))
         self.reset()
 
     # ---------------------------------------------------------------- Algorithm 1
@@ -189,6 +194,7 @@ class ContinuousOccupancyMap:
         for acc in (self._occ, self._free):
             acc.precision = np.where(blocks_cleared, 0.0, reframed(acc.precision, self.frame, frame))
             acc.weighted = np.where(blocks_cleared, 0.0, reframed(acc.weighted, self.frame, frame))
+        self._forget_products()
         self.frame, self._fused_keyframes, self._origins = frame, [], np.zeros((0, 2))
         self.keyframes = 0
         for kf in fused:
@@ -210,6 +216,7 @@ class ContinuousOccupancyMap:
         self._fused_keyframes: list[_Fused] = []
         self._origins = np.zeros((0, 2))     # theirs, in a buffer that doubles when full
         self.keyframes = 0
+        self._forget_products()
 
     def _keep(self, kf: _Fused) -> None:
         """Append a fused keyframe, and its origin to ``_origins``."""
@@ -231,7 +238,7 @@ class ContinuousOccupancyMap:
 
     def prob_occ(self) -> np.ndarray:
         """(h, w) Λo: occupancy probability from the obstacle GP (eq. 8), 0.5 where unseen."""
-        return self._occ.mean()
+        return self._prob_occ.read(self.frame.shape)
 
     def prob_free(self) -> np.ndarray:
         """(h, w) Λf: occupancy probability from the free GP (eq. 8), 0.5 where unseen."""
@@ -247,8 +254,12 @@ class ContinuousOccupancyMap:
 
     def prob(self) -> np.ndarray:
         """(h, w) Λ: the COM, Λo and Λf fused by the BCM; 0.5 where unseen."""
-        return self._fused(self._occ.precision, self._occ.weighted,
-                           self._free.precision, self._free.weighted)
+        return self._prob.read(self.frame.shape)
+
+    def _forget_products(self) -> None:
+        """Λ and Λo are to be computed again over the whole map (it was reset, relearnt or grew)."""
+        self._prob.forget()
+        self._prob_occ.forget()
 
     def snapshot(self) -> MapSnapshot:
         """Λ and Λo for the explorer (eq. 10 reads both)."""
@@ -356,6 +367,8 @@ class ContinuousOccupancyMap:
             p = squash(mean, var, gp.sigma2_min, self.config.squash.gamma, gp.sign)  # 12-14
             acc.add(flat, p, var)                                             # lines 15-16
             local.append((p, var))
+        for product in (self._prob, self._prob_occ):
+            product.touch_flat(flat, self.frame.shape[1])
         return local
 
     def _query_set(self, kf: _Fused):
@@ -411,6 +424,7 @@ class ContinuousOccupancyMap:
         if pad is not None:
             self._occ.pad(*pad)
             self._free.pad(*pad)
+            self._forget_products()
 
     def _check_size(self, lo: np.ndarray, hi: np.ndarray) -> None:
         """Refuse a map spanning global cells ``lo`` .. ``hi`` larger than ``max_cells``."""

@@ -50,10 +50,11 @@ class BCMAccumulator:
         self.precision.flat[flat_cells] += precision
         self.weighted.flat[flat_cells] += precision * mean
 
-    def mean(self) -> np.ndarray:
-        """(h, w) fused probability (eq. 8); 0.5 where nothing was fused."""
+    def mean(self, box: tuple[slice, slice] = np.s_[:, :]) -> np.ndarray:
+        """(h, w) fused probability (eq. 8), or its ``box``; 0.5 where nothing was fused."""
+        precision = self.precision[box]
         with np.errstate(invalid="ignore", divide="ignore"):
-            return np.where(self.precision > 0, self.weighted / self.precision, 0.5)
+            return np.where(precision > 0, self.weighted[box] / precision, 0.5)
 
     def variance(self, prior_var: float) -> np.ndarray:
         """(h, w) fused variance C⁻¹ (eq. 9); ``prior_var`` where nothing was fused."""

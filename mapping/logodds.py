@@ -12,6 +12,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from mapping.grid import GridFrame, cell_key, key_cells, unique_keys
 from mapping.occupancy import MapSnapshot
+from mapping.refreshed import Refreshed
 from mapping.regeneration import moved, reframed, replayed_frame, tile_mask, tiles_of, touches
 from mapping.training import voxel_thin
 from slam.scan import LaserScan
@@ -130,6 +131,8 @@ class LogOddsGrid:
 
     def __init__(self, config: LogOddsConfig | None = None):
         self.config = config or LogOddsConfig()
+        # the probabilities as the planner reads them, computed again only where rays were traced
+        self._prob = Refreshed(lambda box: 1.0 / (1.0 + np.exp(-self.logodds[box])))
         self.reset()
 
     def reset(self) -> None:
@@ -140,6 +143,7 @@ class LogOddsGrid:
         # full: ``hits`` hands out views of it, never copies (it is read at every replan)
         self._hits, self._count = np.zeros((0, 2)), 0
         self._traced: list[_Traced] = []
+        self._prob.forget()
 
     def update(self, pose: gtsam.Pose2, scan: LaserScan, beams: np.ndarray | None = None,
                mark_hits: np.ndarray | None = None) -> None:
@@ -177,6 +181,7 @@ class LogOddsGrid:
         if pad is not None:
             (b0, b1), (a0, a1) = pad
             self.logodds = np.pad(self.logodds, ((b0, a0), (b1, a1)))
+            self._prob.forget()
         self._append_hits(traced.hits)
         self._add(free, hit)
 
@@ -207,6 +212,8 @@ class LogOddsGrid:
         free, hit = self.frame.flat(key_cells(free)), self.frame.flat(key_cells(hit))
         L[free] = np.clip(L[free] + c.l_free, c.l_min, c.l_max)
         L[hit] = np.clip(L[hit] + c.l_occ, c.l_min, c.l_max)
+        self._prob.touch_flat(free, self.logodds.shape[1])
+        self._prob.touch_flat(hit, self.logodds.shape[1])
 
     @property
     def needs_regeneration(self) -> bool:
@@ -241,6 +248,7 @@ class LogOddsGrid:
         frame = replayed_frame(self.frame.resolution, (t.bounds for t in traced))
         self.logodds = np.where(tile_mask(frame, cleared, TILE), 0.0,
                                 reframed(self.logodds, self.frame, frame))
+        self._prob.forget()
         self.frame, self._traced = frame, traced
         beside = unique_keys((key_cells(cleared)[:, None, :] + _AROUND).reshape(-1, 2))
         for k, record in enumerate(traced):
@@ -281,7 +289,7 @@ class LogOddsGrid:
 
     def prob(self) -> np.ndarray:
         """(h, w) occupancy probability, 0.5 where unseen."""
-        return 1.0 / (1.0 + np.exp(-self.logodds))
+        return self._prob.read(self.logodds.shape)
 
     def snapshot(self) -> MapSnapshot:
         """The grid for the explorer (no obstacle map of its own), with the hits it marked."""
