@@ -256,25 +256,24 @@ class Explorer:
         yy, xx = np.mgrid[start[1] - r:start[1] + r + 1, start[0] - r:start[0] + r + 1]
         inside = ((np.hypot(xx - start[0], yy - start[1]) * resolution <= c.robot_radius)
                   & (xx >= 0) & (xx < w) & (yy >= 0) & (yy < h))
+        iy, ix = yy[inside], xx[inside]
         disc = np.zeros((h, w), dtype=bool)
-        disc[yy[inside], xx[inside]] = True
         obstacles = snapshot.hits
         if obstacles is None:
-            iy, ix = np.nonzero(evidence(snapshot) > self.method.costmap.occupied_above)
-            obstacles = origin + resolution * np.column_stack([ix, iy])
+            oy, ox = np.nonzero(evidence(snapshot) > self.method.costmap.occupied_above)
+            obstacles = origin + resolution * np.column_stack([ox, oy])
         needed = c.robot_radius + self.method.costmap.margin
         reach = c.robot_radius + needed + resolution
         # a column at a time: the map's hits (770 000 of them late in office_g's run) are read
         # at every replan
         near = np.flatnonzero(np.abs(obstacles[:, 0] - here[0]) < reach)
         obstacles = obstacles[near[np.abs(obstacles[near, 1] - here[1]) < reach]]
-        if len(obstacles) == 0:
-            return disc
-        needed = min(needed, float(np.linalg.norm(obstacles - here, axis=1).min()))
-        iy, ix = np.nonzero(disc)
-        cells = origin + resolution * np.column_stack([ix, iy])
-        gap = np.linalg.norm(cells[:, None] - obstacles[None], axis=2).min(axis=1)
-        disc[iy[gap < needed], ix[gap < needed]] = False
+        if len(obstacles):
+            needed = min(needed, float(np.linalg.norm(obstacles - here, axis=1).min()))
+            cells = origin + resolution * np.column_stack([ix, iy])
+            clear = np.linalg.norm(cells[:, None] - obstacles[None], axis=2).min(axis=1) >= needed
+            iy, ix = iy[clear], ix[clear]
+        disc[iy, ix] = True
         return disc
 
     def _targets(self) -> np.ndarray:
