@@ -206,7 +206,7 @@ class PoseSlam:
         # np.take copies: no view is left holding the buffers, which ``step`` keeps extending
         anchors = np.take(np.frombuffer(self._anchors, np.int64), indices)
         offsets = np.take(np.frombuffer(self._offsets).reshape(-1, 2), indices, axis=0)
-        x, y, theta = gtsam.utilities.extractPose2(self.graph.estimate)[anchors].T
+        x, y, theta = self.graph.xytheta()[anchors].T
         c, s = np.cos(theta), np.sin(theta)
         return np.column_stack([x + (c * offsets[:, 0] - s * offsets[:, 1]),
                                 y + (s * offsets[:, 0] + c * offsets[:, 1])])
