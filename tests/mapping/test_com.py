@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
-from mapping.com import ContinuousOccupancyMap
+from mapping.com import ContinuousOccupancyMap, _Fused
 from mapping.config import COMConfig, TrainingConfig
 from mapping.metrics import KNOWN, coverage, roc_auc
 from mapping.training import beam_samples
@@ -258,3 +258,26 @@ def test_local_gps_see_at_most_max_train_points_however_large_the_pool(room, mon
         com.update(p, s)
     pool, width, used = np.array(seen).T
     assert pool.max() > 20 * 12 and width.max() == 12 and used.max() == 12
+
+
+def test_the_query_set_is_the_cells_near_the_points_within_the_window_grouped_by_block():
+    """Every cell whose centre offset from a point's cell is within ``near`` and that lies in
+    the window, once, grouped by block (blocks row by row, and the cells row by row within
+    each), against a brute force over the window."""
+    com = ContinuousOccupancyMap(COMConfig(query={"near": 0.25, "window": 3.0, "block": 4}))
+    rng = np.random.default_rng(5)
+    pts = rng.uniform(-2.2, 1.7, (40, 2))
+    kf = _Fused(None, np.array([-0.3, 0.2]), pts[:25], pts[25:])
+    cells, blocks, start = com._query_set(kf)
+    res, near = 0.1, 0.25
+    own = np.unique(np.floor(pts / res).astype(int), axis=0)
+    lo, hi = np.floor((np.array([-0.3, 0.2]) - 1.5) / res), np.floor((np.array([-0.3, 0.2]) + 1.5) / res)
+    want = {(x, y) for x in range(int(lo[0]), int(hi[0]) + 1) for y in range(int(lo[1]), int(hi[1]) + 1)
+            if (np.sum((own - [x, y]) ** 2, axis=1) * res * res <= near ** 2 + 1e-12).any()}
+    assert sorted(map(tuple, cells)) == sorted(want) and len(cells) == len(want)
+    assert start[0] == 0 and start[-1] == len(cells) and np.all(np.diff(start) > 0)
+    assert [tuple(b) for b in blocks] == sorted(map(tuple, blocks), key=lambda b: (b[1], b[0]))
+    for b, block in enumerate(blocks):
+        run = cells[start[b]:start[b + 1]]
+        assert np.all(np.floor_divide(run, 4) == block)
+        assert [tuple(c) for c in run] == sorted(map(tuple, run), key=lambda c: (c[1], c[0]))
