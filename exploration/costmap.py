@@ -124,8 +124,8 @@ def _clear(free: np.ndarray, occupied: np.ndarray, resolution: float, radius: fl
     # cells whose centre is not clear, but a point of which may be (clearance is 1-Lipschitz),
     # where they could join two regions of centre-clear cells: searched for that point
     ok, index = np.empty_like(free), np.empty(free.shape, np.int64)
-    maybe = _split(free, occupied, near_unknown, squared, clear, clear - config.squeeze - resolution / math.sqrt(2),
-                   to_occupied, ok, index)
+    low = clear - config.squeeze - resolution / math.sqrt(2)
+    maybe = _split(free, occupied, near_unknown, squared, clear, low, to_occupied, ok, index)
     rooms, _ = ndimage.label(ok, structure=_EIGHT)
     linking = _links(rooms, index, maybe, np.ones(len(maybe), np.bool_))
     iy, ix = maybe[linking] // free.shape[1], maybe[linking] % free.shape[1]
@@ -297,7 +297,8 @@ def _links(rooms: np.ndarray, index: np.ndarray, cells: np.ndarray, among: np.nd
     ``rooms`` (h, w), labels of the 8-connected groups of some cells (0: none): passages (a
     door whose clear span holds no cell centre), not the rim of one room along its walls.
     The groups are found among the cells alone, not over the grid."""
-    return _two_rooms(rooms, index, np.ascontiguousarray(cells, np.int64), np.ascontiguousarray(among, np.bool_))
+    return _two_rooms(rooms, index, np.ascontiguousarray(cells, np.int64),
+                      np.ascontiguousarray(among, np.bool_))
 
 
 @numba.njit(cache=True)
