@@ -9,8 +9,8 @@ import pytest
 from exploration import frontier_methods
 from exploration.costmap import passable
 from exploration.explorer import Explorer, ExplorerConfig
-from exploration.frontier_methods import (VIEWS, CFrontier, DoorFrontier, MissedByF, Reachable, look, nearest_view,
-                                          spread, within_reach)
+from exploration.frontier_methods import (VIEWS, CFrontier, DoorFrontier, MissedByF, Reachable, look, look_map,
+                                          nearest_view, spread, within_reach)
 from exploration.frontier import frontier_map
 from exploration.gain import visible_unknown_area
 from exploration.goals import GoalConfig, extract_goals
@@ -692,6 +692,25 @@ def test_the_c_frontier_s_stop_checks_a_wedge_seen_through_a_door_where_the_com_
     in_wedge = lambda r: (r[:, 0] > 8.2).all() and (r[:, 1] > 5.2).all()
     assert any(in_wedge(r) for r in missed_regions(wedge_past_a_corner_door()))
     assert not any(in_wedge(r) for r in missed_regions(wedge_past_a_corner_door(hits=False)))
+
+
+def test_a_look_past_a_wedge_seen_through_a_door_is_not_shut_where_the_obstacle_gp_joins_its_jambs():
+    """The wedge past the corner door, with Λo 0.9 in a 0.4 m band of unknown cells along the
+    wall's outer face (as the obstacle GP joins a door's jambs): the look map the C-frontier's
+    stop check gives reads those cells unknown near the wedge's region, past the robot's radius
+    from every hit, as the costmap grid does, and occupied far from it (office_d's GP run
+    stopped with a 30 m² room unseen behind a door seen edge-on: every look showed 0 m²)."""
+    snapshot = wedge_past_a_corner_door()
+    band = (slice(18, 62), slice(82, 86))
+    snapshot.prob_occ[band] = np.where(snapshot.traversable[band] == UNKNOWN, WALL, snapshot.prob_occ[band])
+    check = MissedByF(ExplorerConfig(method="gp"))
+    frontier = check.frontier(snapshot)
+    assert len(frontier.regions) == 1 and frontier.regions[0][:, 1].min() >= 54
+    shut = look_map(snapshot, check.costmap, check.config.robot_radius)
+    near, far = (slice(48, 54), slice(84, 86)), (slice(18, 30), slice(84, 86))
+    assert (shut[near] > WALL - 0.1).all() and (shut[far] > WALL - 0.1).all()
+    assert np.array_equal(frontier.evidence[near], snapshot.traversable[near])
+    assert np.array_equal(frontier.evidence[far], shut[far])
 
 
 def with_wall_hits(snapshot, *extra):

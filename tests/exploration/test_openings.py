@@ -1,5 +1,7 @@
 """Door-long frontier regions read against the hits: an opening in a wall, or a grazed surface."""
 
+import math
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -122,6 +124,20 @@ def test_a_wedge_of_beams_through_a_door_at_a_room_s_corner_is_seen_through_a_ga
     wall's end 1.4 m into the room, read from either end."""
     hits, wedge = corner_door(0.75), line((0.65, 2.05), (0.1, 3.4))
     assert through(hits, wedge) and through(hits, wedge[::-1])
+
+
+def test_a_wedge_of_beams_through_a_door_seen_edge_on_is_seen_through_a_gap():
+    """office_d's door: a wall along x = 0 up to y = 0 and on along x = 0.23 m from y = 0.79 m
+    (the jambs offset across the wall), seen from the corridor at x < 0 at a grazing angle;
+    the wedge's frontier runs from the lower jamb 3.5 m into the room at 22 degrees to the
+    wall, its far end 0.37 m off the line of the jambs, 3.3 m past the gap."""
+    hits = np.vstack([wall((0, -3.0), (0, 0)), wall((0.23, 0.79), (0.23, 4.0))])
+    corridor = cells(-3.0, -0.5, -3.0, 4.0)
+    far = 3.5 * np.array([math.sin(math.radians(22)), math.cos(math.radians(22))])
+    wedge = line((0.05, 0.05), far)
+    assert through(hits, wedge, corridor) and through(hits, wedge[::-1], corridor)
+    # the same frontier running back into the corridor it was seen from is no door
+    assert not through(hits, line((-0.05, 0.05), far * [-1, 1]), corridor)
 
 
 def test_a_gap_narrower_than_the_robot_or_wider_than_a_door_is_not_seen_through():
