@@ -15,7 +15,6 @@ from typing import Iterable
 import gtsam
 import numba
 import numpy as np
-from scipy.spatial import cKDTree
 
 from mapping.config import COMConfig, KernelConfig
 from mapping.drift import DriftMonitor, js_divergence
@@ -23,7 +22,7 @@ from mapping.fusion import BCMAccumulator, bcm_fuse
 from mapping.gp import GaussianProcess, fit_hyperparameters
 from mapping.grid import GridFrame, box, cell_key
 from mapping.kernels import Kernel
-from mapping.localgp import predict_blocks
+from mapping.localgp import nearest_within, predict_blocks
 from mapping.occupancy import MapSnapshot
 from mapping.refreshed import Refreshed
 from mapping.regeneration import moved, reframed, replayed_frame, tile_mask, touches
@@ -394,14 +393,13 @@ class ContinuousOccupancyMap:
     def _predict(self, gp: _GPState, pts: np.ndarray, blocks: np.ndarray, cells: np.ndarray,
                  start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Local GPs (line 11), one per block, each trained on the ``max_train`` points nearest
-        to the block centre within ``margin`` of the block (KD-tree). Returns (k,) mean, var."""
+        to the block centre within ``margin`` of the block. Returns (k,) mean, var."""
         q = self.config.query
         b, res = q.block, q.resolution
         centres = (blocks + 0.5) * b * res
         reach = np.sqrt(2) * b * res / 2 + q.margin
         k = min(q.max_train, len(pts))
-        _, idx = cKDTree(pts).query(centres, k=k, distance_upper_bound=reach)
-        idx = idx.reshape(len(blocks), k)
+        idx = nearest_within(np.ascontiguousarray(pts, np.float64), centres, k, reach, b * res)
         return predict_blocks(gp.kernel, gp.noise_var, pts, idx, self.frame.centres(cells), start)
 
     def _grow(self, cells: np.ndarray) -> None:

@@ -6,7 +6,8 @@ from scipy.special import gamma, kv
 
 from mapping.gp import GaussianProcess, fit_hyperparameters
 from mapping.kernels import Kernel, matern, squared_exponential
-from mapping.localgp import predict_blocks
+from mapping.localgp import nearest_within, predict_blocks
+from scipy.spatial import cKDTree
 
 
 def matern_bessel(r, length, nu):
@@ -82,6 +83,34 @@ def test_local_gp_blocks_match_exact_gps_with_targets_one():
         np.testing.assert_allclose(var[start[b]:start[b + 1]], v_ref, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(mean[7:], 0.0)            # no training points: the prior
     np.testing.assert_allclose(var[7:], 1.0)
+
+
+def brute_nearest(pts, centres, k, reach):
+    """The k nearest points nearer than reach, by squared distance then index, from every
+    distance at once; len(pts) pads."""
+    out = np.full((len(centres), k), len(pts))
+    for c, centre in enumerate(centres):
+        d = ((pts - centre) ** 2).sum(axis=1)
+        near = np.lexsort((np.arange(len(pts)), d))
+        near = near[d[near] < reach ** 2][:k]
+        out[c, :len(near)] = near
+    return out
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_block_trains_on_the_points_nearest_its_centre_within_reach(seed):
+    rng = np.random.default_rng(seed)
+    # clustered points on a 1/16 m lattice (exact ties of distance, duplicates), and scattered
+    lattice = np.round(rng.uniform(-3, 3, (rng.integers(1, 300), 2)) * 16) / 16
+    pts = np.concatenate([lattice, lattice[:20], rng.uniform(-8, 8, (rng.integers(0, 60), 2))])
+    centres = rng.uniform(-10, 10, (200, 2))                 # some far beyond every point
+    centres[:100] = np.round(centres[:100] / 3 * 16) / 16    # on the lattice: points tie
+    for k, reach in ((16, 1.35), (5, 0.4), (3, 0.2), (len(pts) + 3, 2.0)):
+        got = nearest_within(pts, centres, k, reach, 0.5)
+        np.testing.assert_array_equal(got, brute_nearest(pts, centres, k, reach))
+    smooth = rng.uniform(0, 20, (900, 2))                    # no ties: a k-d tree's answer
+    _, tree = cKDTree(smooth).query(centres + 10, k=16, distance_upper_bound=1.35)
+    np.testing.assert_array_equal(nearest_within(smooth, centres + 10, 16, 1.35, 0.5), tree)
 
 
 def test_gp_survives_duplicate_points_and_rejects_nan():
