@@ -139,28 +139,35 @@ class Explorer:
         """A goal and a path for the robot at ``pose`` on this map snapshot: keep the goal while
         its frontier remains and its path is open, else choose the best frontier cluster.
 
-        A C-frontier goal is kept, or not, on the map round its target alone (F there,
-        ``CFrontier.cells_near``) and a search that ends at the goal (``paths.distance_field``
-        ``until``), as the whole map would keep it: a kept goal's plan (most plans) then costs
-        a fraction of a new choice on a big map."""
+        A goal is kept, or not, on the frontier that keeps it (``_keeping``) and a search that
+        ends at the goal (``paths.distance_field`` ``until``), as the whole map would keep it:
+        a kept goal's plan (most plans) then costs a fraction of a new choice on a big map."""
         costmap = self._passable(snapshot)
-        local = self.goal is not None and self.source is self.method and isinstance(self.method, CFrontier)
-        if local:
-            cells = self.method.cells_near(snapshot, self._targets(), self.config.goals.reach)
+        frontier = None
+        if self.goal is not None:
+            cells, frontier = self._keeping(snapshot)
             reachable = self._reachable(snapshot, pose, costmap, until=self.goal)
             if self._goal_still_valid(cells, reachable):
                 return Plan(self.goal, reachable.path(self.goal))
         reachable = self._reachable(snapshot, pose, costmap)
-        frontier = self.method.frontier(snapshot)
-        if self.goal is not None and not local:
-            source = (frontier if self.source is self.method
-                      else self.source.keeping(snapshot, self._targets(), self.config.goals.reach))
-            if self._goal_still_valid(source.cells, reachable):
-                return Plan(self.goal, reachable.path(self.goal))
+        frontier = self.method.frontier(snapshot) if frontier is None else frontier
         plan = self._choose(snapshot, frontier, reachable)
         if plan.done == "no_reachable_goal" and self._reopen(snapshot):
             plan = self._choose(snapshot, frontier, self._reachable(snapshot, pose, costmap))
         return plan
+
+    def _keeping(self, snapshot: MapSnapshot) -> tuple[np.ndarray, Frontier | None]:
+        """The frontier cells (n, 2) that keep the current goal, and the method's whole
+        frontier when they are its: a C-frontier goal's are F round its target alone
+        (``CFrontier.cells_near``), a check's its regions near the target (``keeping``); the
+        grid method's are the whole frontier, which a new choice then reads as well."""
+        targets, reach = self._targets(), self.config.goals.reach
+        if self.source is not self.method:
+            return self.source.keeping(snapshot, targets, reach).cells, None
+        if isinstance(self.method, CFrontier):
+            return self.method.cells_near(snapshot, targets, reach), None
+        frontier = self.method.frontier(snapshot)
+        return frontier.cells, frontier
 
     def _reopen(self, snapshot: MapSnapshot) -> bool:
         """Reopen the closed stretches on the robot's trail (within two cells of it), when no
