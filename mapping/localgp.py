@@ -188,6 +188,7 @@ def nearest_within(pts, centres, k, reach, cell):
             out[c, j] = best_i[j]
     return out
 
+
 def predict_blocks(kernel: Kernel, noise_var: float, pts: np.ndarray, idx: np.ndarray,
                    qxy: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Posterior mean and variance of B local GPs with targets +1 (eqs. 3-4).

@@ -1,13 +1,14 @@
-"""Kernels against scipy's Bessel-function Matérn; GP posterior against the closed form."""
+"""Kernels against scipy's Bessel-function Matérn; GP posterior against the closed form; a local
+GP's training points against every distance."""
 
 import numpy as np
 import pytest
+from scipy.spatial import cKDTree
 from scipy.special import gamma, kv
 
 from mapping.gp import GaussianProcess, fit_hyperparameters
 from mapping.kernels import Kernel, matern, squared_exponential
 from mapping.localgp import nearest_within, predict_blocks
-from scipy.spatial import cKDTree
 
 
 def matern_bessel(r, length, nu):
