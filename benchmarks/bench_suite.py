@@ -42,7 +42,7 @@ from sim.suite import (EXTRA_WORLDS, outcome, rows_csv, rows_markdown, suite_row
 from slam.atomic import write_text_atomic  # noqa: E402
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=3, help="seeds 0..N-1 (default 3)")
     parser.add_argument("--worlds", nargs="+", default=None,
@@ -52,7 +52,7 @@ def main() -> None:
     parser.add_argument("--max-steps", type=int, default=None, help="cap every world's step budget (smoke tests)")
     parser.add_argument("--suite", type=Path, default=None, help="suite folder or manifest.csv "
                         "(default: the shared data's maps/suite)")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     data = benchmark_data_dir()     # warns unless BLAS is single-threaded
     base = EpisodeConfig()          # Pose SLAM in the loop (stack.poses = "slam")
     configs = {m: base.overridden(method=m) for m in ("gp", "grid")}
