@@ -6,7 +6,7 @@ import pytest
 
 from exploration.stack import StackConfig
 from mapping.grid import GridFrame
-from sim.episode import EpisodeConfig, Evaluator, SnapshotRecorder, run_episode, stop_failed
+from sim.episode import EpisodeConfig, Evaluator, SnapshotRecorder, lattice_clearance, run_episode, stop_failed
 from sim.world import World
 from small_worlds import two_rooms
 
@@ -97,6 +97,22 @@ def map_knowing(world: World, known) -> SimpleNamespace:
     return SimpleNamespace(map=SimpleNamespace(frame=frame, prob=lambda: prob)), prob
 
 
+def test_lattice_clearance_is_the_distance_to_the_nearest_occupied_cell_or_border():
+    rng = np.random.default_rng(3)
+    occupied = rng.random((7, 9)) < 0.15
+    resolution = 0.05
+    got = lattice_clearance(occupied, resolution)
+    h, w = occupied.shape
+    # every occupied cell as a closed box, and the border as four boxes outside the grid
+    boxes = [(j, i, j + 1, i + 1) for i, j in np.argwhere(occupied)]
+    boxes += [(-1, -1, w + 1, 0), (-1, h, w + 1, h + 1), (-1, -1, 0, h + 1), (w, -1, w + 1, h + 1)]
+    for a in range(2 * h + 1):
+        for b in range(2 * w + 1):
+            x, y = b / 2, a / 2                     # in cells, from the grid's corner
+            d = min(np.hypot(max(x0 - x, 0, x - x1), max(y0 - y, 0, y - y1)) for x0, y0, x1, y1 in boxes)
+            assert got[a, b] == pytest.approx(d * resolution, abs=1e-12)
+
+
 @pytest.mark.parametrize("door", [20, 12, 13])
 def test_missed_area_is_the_unseen_part_of_a_room_with_the_door_to_it(door):
     world = rooms_and_door(door)
@@ -110,10 +126,8 @@ def test_missed_area_is_the_unseen_part_of_a_room_with_the_door_to_it(door):
     assert missed["area_m2"] == pytest.approx(room, abs=0.05 * 5.0)
     assert missed["x"] == pytest.approx((6.0 + 9.2 - 0.25) / 2, abs=0.05)
     assert missed["y"] == pytest.approx(2.6, abs=0.05)
-    # the door is 1.0, 0.6 or 0.65 m wide: its middle cell's clearance is half that, less half
-    # a cell when no cell lies at its middle (an even number of cells)
-    width = 0.05 * door
-    assert missed["door_m"] == pytest.approx(width - 0.05 * (door % 2 == 0), abs=1e-9)
+    # the door is 1.0, 0.6 or 0.65 m wide, an even number of cells or an odd one
+    assert missed["door_m"] == pytest.approx(0.05 * door, abs=1e-9)
     small = evaluator.missed_regions(stack, prob, min_region_m2=0.1)
     assert [r["area_m2"] for r in small] == pytest.approx([missed["area_m2"], 0.25], abs=0.05 * 5.0)
     assert small[1]["door_m"] > 1.0                       # the patch lies in the start's room
