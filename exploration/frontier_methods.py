@@ -25,7 +25,8 @@ from exploration.frontier import FrontierMap, frontier_map_within
 from exploration.gain import visible_unknown_area
 from exploration.goals import Blacklist, FrontierCluster, extract_goals
 from exploration.grid_frontier import grid_frontiers, region_size
-from exploration.openings import hits_near, holding_hits, in_a_wall_gap, seen_through_a_gap
+from exploration.openings import (across_a_corner, hits_near, holding_hits, in_a_wall_gap,
+                                  seen_through_a_gap)
 from exploration.paths import Approach, best_cell_near, near_distance, nearest_reachable_cell, path_to
 from mapping.metrics import KNOWN
 from mapping.occupancy import MapSnapshot
@@ -309,11 +310,7 @@ class MissedByF(GridFrontier):
             return beside_the_open_unknown(free, occupied), free
 
         def free_near(centre: np.ndarray, radius: float) -> np.ndarray:
-            low = np.maximum(np.floor((centre - radius - origin) / resolution).astype(int), 0)
-            high = np.maximum(np.ceil((centre + radius - origin) / resolution).astype(int) + 1, 0)
-            iy, ix = np.nonzero(read()[1][low[1]:high[1], low[0]:high[0]])
-            cells = origin + resolution * (np.column_stack([ix, iy]) + low)
-            return cells[np.linalg.norm(cells - centre, axis=1) <= radius]
+            return cells_within(read()[1], origin, resolution, centre, radius)
 
         def through(region: np.ndarray) -> bool:
             if not read()[0][region[:, 1], region[:, 0]].any():
@@ -366,17 +363,21 @@ class DoorFrontier(GridFrontier):
         (office_d: a 28 m² room was left when its door's region grew from 8 cells as the robot
         came into the doorway)."""
         found = super().frontier(snapshot, near)
-        beside = beside_the_open_unknown(*classify(evidence(snapshot), self.costmap))
+        free, occupied = classify(evidence(snapshot), self.costmap)
+        beside = beside_the_open_unknown(free, occupied)
         regions = tuple(r for r in found.regions
                         if (near is not None or len(r) < self.config.min_frontier_cells)
                         and beside[r[:, 1], r[:, 0]].any())
         if snapshot.hits is not None and len(snapshot.hits) and regions:
             origin, resolution = np.asarray(snapshot.origin, float), snapshot.resolution
-            reach = 2 * self.config.robot_radius
+            reach, tolerance = 2 * self.config.robot_radius, math.sqrt(2) * resolution
 
             def in_a_gap(points: np.ndarray) -> bool:
                 hits = cKDTree(hits_near(snapshot.hits, points, 2 * reach))
-                return in_a_wall_gap(points, hits, reach, math.sqrt(2) * resolution, self.config.robot_radius)
+                return (in_a_wall_gap(points, hits, reach, tolerance, self.config.robot_radius)
+                        or across_a_corner(points, hits, reach, tolerance,
+                                           lambda centre, radius: cells_within(free, origin, resolution,
+                                                                               centre, radius)))
 
             regions = tuple(r for r in regions if in_a_gap(origin + resolution * r))
         cells = np.vstack(regions) if regions else np.zeros((0, 2), int)
@@ -410,6 +411,17 @@ class DoorFrontier(GridFrontier):
             if view is not None:
                 clusters.append(dataclasses.replace(k, goal=view[1], distance=view[0], utility=-view[0]))
         return sorted(clusters, key=lambda k: -k.utility)
+
+
+def cells_within(mask: np.ndarray, origin: np.ndarray, resolution: float, centre: np.ndarray,
+                 radius: float) -> np.ndarray:
+    """(m, 2) meters, the centres of the (h, w) ``mask``'s cells (cell (0, 0)'s at ``origin``)
+    within ``radius`` m of ``centre`` (2,)."""
+    low = np.maximum(np.floor((centre - radius - origin) / resolution).astype(int), 0)
+    high = np.maximum(np.ceil((centre + radius - origin) / resolution).astype(int) + 1, 0)
+    iy, ix = np.nonzero(mask[low[1]:high[1], low[0]:high[0]])
+    cells = origin + resolution * (np.column_stack([ix, iy]) + low)
+    return cells[np.linalg.norm(cells - centre, axis=1) <= radius]
 
 
 def opened_near(looked: np.ndarray, seen: np.ndarray, cells: np.ndarray, span: int) -> np.ndarray:

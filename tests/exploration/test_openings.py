@@ -5,7 +5,7 @@ import math
 import numpy as np
 from scipy.spatial import cKDTree
 
-from exploration.openings import hits_near, holding_hits, in_a_wall_gap, seen_through_a_gap
+from exploration.openings import across_a_corner, hits_near, holding_hits, in_a_wall_gap, seen_through_a_gap
 
 STEP = 0.05                 # a hit every 5 cm along a wall
 TOLERANCE = 0.1 * np.sqrt(2)  # a 0.1 m cell's diagonal
@@ -117,6 +117,39 @@ def corner_door(gap):
     x = 0 from y = 2.2 m up, and the room's front wall along y = 2.0 m from x = ``gap`` on:
     the door, ``gap`` m wide, meets the corner; the two walls along it are 0.2 m apart."""
     return np.vstack([wall((-3, 1.8), (0, 1.8)), wall((0, 2.2), (0, 5)), wall((gap, 2.0), (4, 2.0))])
+
+
+#: The room the beams were cast from: x > 0
+ROOM = cells(0.1, 3.0, 0.1, 3.0)
+
+
+def at_a_corner(hits, points, free=ROOM):
+    """``across_a_corner`` with the free cells ``free`` (k, 2) and the region's own."""
+    free = np.vstack([free, points])
+    return across_a_corner(points, cKDTree(hits), 0.5, TOLERANCE,
+                           lambda centre, radius: free[np.linalg.norm(free - centre, axis=1) <= radius])
+
+
+def test_a_door_flush_with_a_corner_is_a_door_at_a_corner():
+    """A wall along x = 0 down to y = 1.0 m, and the face along y = 0 across its line: the
+    door between them, 1 m wide, is flush with the corner. Beams from the room at x > 0 crossed
+    the wall's line into the room behind, and their frontier runs from the wall's end down to
+    the face 0.35 m past the line. Along x = 0 no wall runs on past the door."""
+    hits = np.vstack([wall((0, 1.0), (0, 5)), wall((-3, 0), (3, 0))])
+    points = line((-0.05, 0.95), (-0.35, 0.15))
+    assert at_a_corner(hits, points)
+    assert not door(hits, points)
+
+
+def test_the_unseen_end_of_a_face_at_a_concave_corner_is_not_a_door_at_a_corner():
+    """The same hits, the face along x = 0 unseen from y = 1.0 m down to the corner: its
+    frontier lies on the room's side of the line, where the free space is; and a frontier past
+    the line of a face whose other end meets no face across it (a step to a face along
+    x = -0.4 m) is no door at a corner either."""
+    hits = np.vstack([wall((0, 1.0), (0, 5)), wall((-3, 0), (3, 0))])
+    assert not at_a_corner(hits, region(0.05, 0.1, 0.9))
+    step = np.vstack([wall((0, 1.0), (0, 5)), wall((-0.4, -3), (-0.4, 0.6))])
+    assert not at_a_corner(step, line((-0.1, 0.95), (-0.35, 0.65)))
 
 
 def test_a_wedge_of_beams_through_a_door_at_a_room_s_corner_is_seen_through_a_gap():
