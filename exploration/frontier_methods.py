@@ -375,7 +375,7 @@ class DoorFrontier(GridFrontier):
             def in_a_gap(points: np.ndarray) -> bool:
                 hits = cKDTree(hits_near(snapshot.hits, points, 2 * reach))
                 return (in_a_wall_gap(points, hits, reach, tolerance, self.config.robot_radius)
-                        or across_a_corner(points, hits, reach, tolerance,
+                        or across_a_corner(points, hits, reach, self.config.robot_radius,
                                            lambda centre, radius: cells_within(free, origin, resolution,
                                                                                centre, radius)))
 

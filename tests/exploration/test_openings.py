@@ -126,7 +126,7 @@ ROOM = cells(0.1, 3.0, 0.1, 3.0)
 def at_a_corner(hits, points, free=ROOM):
     """``across_a_corner`` with the free cells ``free`` (k, 2) and the region's own."""
     free = np.vstack([free, points])
-    return across_a_corner(points, cKDTree(hits), 0.5, TOLERANCE,
+    return across_a_corner(points, cKDTree(hits), 0.5, 0.25,
                            lambda centre, radius: free[np.linalg.norm(free - centre, axis=1) <= radius])
 
 
@@ -150,6 +150,16 @@ def test_the_unseen_end_of_a_face_at_a_concave_corner_is_not_a_door_at_a_corner(
     assert not at_a_corner(hits, region(0.05, 0.1, 0.9))
     step = np.vstack([wall((0, 1.0), (0, 5)), wall((-0.4, -3), (-0.4, 0.6))])
     assert not at_a_corner(step, line((-0.1, 0.95), (-0.35, 0.65)))
+
+
+def test_a_face_bending_off_the_line_of_its_seen_end_is_not_a_door_at_a_corner():
+    """lab_a: a face seen along x = 0 from y = 1.0 m up, unseen below, bending 0.18 m past that
+    line by the time it meets the face along y = 0: its frontier follows the bend, and beams
+    must cross the line by more than the robot's radius (0.25 m); the corner door's crossed it
+    by 0.35 m."""
+    hits = np.vstack([wall((0, 1.0), (0, 5)), wall((-3, 0), (3, 0))])
+    assert not at_a_corner(hits, line((-0.02, 0.95), (-0.18, 0.15)))
+    assert at_a_corner(hits, line((-0.05, 0.95), (-0.35, 0.15)))
 
 
 def test_a_wedge_of_beams_through_a_door_at_a_room_s_corner_is_seen_through_a_gap():
