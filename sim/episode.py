@@ -176,8 +176,12 @@ class Evaluator:
         narrow as the robot's diameter and margins tells another story than one behind a wide
         door."""
         rows, cols = self.cells
-        box = slice(rows.min(), rows.max() + 1), slice(cols.min(), cols.max() + 1)
-        clearance = lattice_clearance(self.world.occupied[box], self.world.resolution[0])
+        resolution, (h, w) = self.world.resolution[0], self.world.occupied.shape
+        # the reachable cells' box, widened by the start's clearance: its edge counts as a wall
+        margin = int(np.ceil(self.world.clearance()[self.start[1], self.start[0]] / resolution)) + 2
+        box = (slice(max(rows.min() - margin, 0), min(rows.max() + margin + 1, h)),
+               slice(max(cols.min() - margin, 0), min(cols.max() + margin + 1, w)))
+        clearance = lattice_clearance(self.world.occupied[box], resolution)
         # cell (i, j) of the box is lattice point (2i + 1, 2j + 1)
         start = 2 * (self.start[1] - box[0].start) + 1, 2 * (self.start[0] - box[1].start) + 1
         inside = np.zeros(clearance.shape, bool)
