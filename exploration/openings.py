@@ -108,6 +108,7 @@ def across_a_corner(points: np.ndarray, hits: cKDTree, reach: float, side: float
     ends = _ends(points)
     if ends is None:
         return False
+    free = None
     for end, other in (ends, ends[::-1]):
         wall = hits.data[hits.query_ball_point(end, reach, return_sorted=True)]
         face = hits.data[hits.query_ball_point(other, reach, return_sorted=True)]
@@ -115,11 +116,11 @@ def across_a_corner(points: np.ndarray, hits: cKDTree, reach: float, side: float
         across = _direction(face) if len(face) >= 3 else None
         if line is None or across is None or abs(line @ across) > math.cos(math.radians(45.0)):
             continue
-        normal = np.array([-line[1], line[0]])
-        centre = points.mean(axis=0)
-        sides = np.sign((free_near(centre, 2 * reach) - wall.mean(axis=0)) @ normal)
+        free = free_near(points.mean(axis=0), 2 * reach) if free is None else free
+        normal, on = np.array([-line[1], line[0]]), wall.mean(axis=0)
+        sides = np.sign((free - on) @ normal)
         beyond = -1.0 if np.count_nonzero(sides > 0) > np.count_nonzero(sides < 0) else 1.0
-        if np.max(beyond * ((points - wall.mean(axis=0)) @ normal)) > side:
+        if np.max(beyond * ((points - on) @ normal)) > side:
             return True
     return False
 
