@@ -79,7 +79,8 @@ class PoseGraph:
         key, and an update changes Δ only where its back-substitution reached, so only the keys
         whose Δ changed, the marked ones and the new ones are read again (``calculateEstimate``
         reads all of them: with the read of x, y, θ, about 2 ms a keyframe on office_g's
-        4 000 keyframes under the profiler). The poses are those ``calculateEstimate`` gives, bit for bit."""
+        4 000 keyframes under the profiler). The poses are those ``calculateEstimate`` gives,
+        bit for bit."""
         delta = self.isam.getDelta().vector().reshape(-1, 3)
         n = min(len(delta), len(self._delta))
         changed = np.flatnonzero((delta[:n] != self._delta[:n]).any(axis=1))
