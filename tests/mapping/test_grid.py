@@ -61,3 +61,9 @@ def test_fixed_points_read_what_sample_reads_as_the_grid_grows():
         grid = rng.random(f.shape)
         np.testing.assert_array_equal(points.sample(f, grid), f.sample(grid, xy))
         np.testing.assert_array_equal(points.sample(f, grid, outside=-1.0), f.sample(grid, xy, outside=-1.0))
+        # turned 30° about the origin, then shifted: read at the moved points
+        c, s = np.cos(np.pi / 6), np.sin(np.pi / 6)
+        moved = np.column_stack([c * xy[:, 0] - s * xy[:, 1] + 0.7, s * xy[:, 0] + c * xy[:, 1] - 1.3])
+        np.testing.assert_array_equal(points.sample(f, grid, moved=(np.pi / 6, np.array([0.7, -1.3]))),
+                                      f.sample(grid, moved))
+        np.testing.assert_array_equal(points.sample(f, grid), f.sample(grid, xy))

@@ -194,3 +194,29 @@ def test_run_state_names_the_goal_or_the_spin():
     assert run_state(stack, []) == "spin, 3 keyframes, 1 loops"
     stack.plan = SimpleNamespace(goal=np.array([2.04, -1.0]))
     assert run_state(stack, [(10, 1.0, 0.456, 9.0)]) == "goal (2.0, -1.0), 3 keyframes, 1 loops, coverage 46 %"
+
+
+def test_a_map_turned_and_shifted_whole_is_read_in_its_own_frame():
+    """A map right in its own shape but turned 2° and shifted 0.36 m from the world's frame (a
+    heading error gathered before any loop turns the whole map) knows room A and not room B.
+    Read through the move that takes the true trajectory onto the estimated one, it covers what
+    the same map unturned covers, and misses room B alone; read in the world's frame, it would
+    miss a strip of room A along its wall too, and count a strip of room B as seen."""
+    world = rooms_and_door()
+    angle, shift = np.radians(2.0), np.array([0.3, -0.2])
+    c, s = np.cos(angle), np.sin(angle)
+    turned, prob = map_knowing(world, lambda x, y: c * (x - shift[0]) + s * (y - shift[1]) < 6.0)
+    straight, prob_straight = map_knowing(world, lambda x, y: x < 6.0)
+    evaluator = Evaluator(world, (1.5, 2.5), 0.25)
+    expected = evaluator.coverage(straight, prob_straight)
+    [room] = evaluator.missed_regions(straight, prob_straight)
+    assert abs(evaluator.coverage(turned, prob) - expected) > 0.02
+    t = np.linspace(0.0, 1.0, 60)[:, None]
+    truth = np.hstack([1.0 + 3.5 * t, 1.0 + 3.0 * t ** 2])       # a curved drive in room A
+    evaluator.align(truth @ np.array([[c, s], [-s, c]]) + shift, truth)
+    assert evaluator.moved[0] == pytest.approx(angle, abs=1e-12)
+    np.testing.assert_allclose(evaluator.moved[1], shift, atol=1e-12)
+    # the cells along x = 6.0 are read at points up to half a cell's diagonal off: 0.035 m of 4.5 m
+    assert evaluator.coverage(turned, prob) == pytest.approx(expected, abs=0.005)
+    [missed] = evaluator.missed_regions(turned, prob)
+    assert missed["area_m2"] == pytest.approx(room["area_m2"], abs=0.035 * 5.0)
