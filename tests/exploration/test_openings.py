@@ -5,6 +5,7 @@ import math
 import numpy as np
 from scipy.spatial import cKDTree
 
+from exploration.frontier_methods import cells_within
 from exploration.openings import across_a_corner, hits_near, holding_hits, in_a_wall_gap, seen_through_a_gap
 
 STEP = 0.05                 # a hit every 5 cm along a wall
@@ -160,6 +161,38 @@ def test_a_face_bending_off_the_line_of_its_seen_end_is_not_a_door_at_a_corner()
     hits = np.vstack([wall((0, 1.0), (0, 5)), wall((-3, 0), (3, 0))])
     assert not at_a_corner(hits, line((-0.02, 0.95), (-0.18, 0.15)))
     assert at_a_corner(hits, line((-0.05, 0.95), (-0.35, 0.15)))
+
+
+def test_the_free_space_behind_a_wall_does_not_decide_a_corner_door_s_side():
+    """building_0008's GP run: a robot in a passage (x < 0) beside a wall along x = 0 looked
+    down through a 0.85 m door flush with the corner of the room's front wall along y = 0, and
+    saw a wedge of the room past it (x > 0). Behind the front wall runs a corridor (y < 0),
+    most of it under the room. Within a metre of the wedge's edge, the free cells on the
+    room's side (the wedge and the corridor) outnumber the passage's, and the door's side reads
+    wrong; counted where they join the region (``cells_within``'s ``joined``), the corridor's
+    drop out: the beams crossed the wall's line from the passage."""
+    res, origin = 0.05, np.array([-3.0, -2.0])
+    yy, xx = np.mgrid[0:100, 0:120]
+    x, y = origin[0] + res * xx, origin[1] + res * yy
+    free = (((x >= -0.8) & (x <= -0.05) & (y >= 0.05) & (y <= 2.0))      # the passage
+            | ((x > -0.05) & (y >= 0.05) & (x + y <= 0.85))               # the door and the wedge
+            | ((x >= -0.3) & (x <= 2.5) & (y >= -1.0) & (y <= -0.1)))     # the corridor
+    hits = np.vstack([wall((0, 0.85), (0, 3)), wall((-3, 0), (3, 0))])
+    edge = line((0.05, 0.75), (0.75, 0.05), step=res)
+    cells = np.round((edge - origin) / res).astype(int)
+    assert free[cells[:, 1], cells[:, 0]].all()
+
+    def at_the_door(joined):
+        return across_a_corner(edge, cKDTree(hits), 0.5, 0.25,
+                               lambda centre, radius: cells_within(free, origin, res, centre, radius, joined))
+
+    assert not at_the_door(None)
+    assert at_the_door(cells)
+    near = cells_within(free, origin, res, edge.mean(axis=0), 1.0, cells)
+    assert len(near) and np.all(near[:, 1] > 0)
+    everything = cells_within(free, origin, res, edge.mean(axis=0), 1.0)
+    inside = free[np.linalg.norm(np.stack([x, y], axis=-1) - edge.mean(axis=0), axis=-1) <= 1.0]
+    assert len(everything) == inside.sum() > len(near)
 
 
 def test_a_wedge_of_beams_through_a_door_at_a_room_s_corner_is_seen_through_a_gap():
