@@ -68,6 +68,12 @@ class Blacklist:
     def add(self, xy) -> None:
         self.centres.append(np.asarray(xy, dtype=float))
 
+    def joined(self, other: Blacklist) -> Blacklist:
+        """Both blacklists' goals, at this one's radius."""
+        both = Blacklist(self.radius)
+        both.centres = self.centres + other.centres
+        return both
+
     def covers(self, points: np.ndarray) -> np.ndarray:
         """(n,) bool: points within ``radius`` of a blacklisted goal."""
         points = np.asarray(points, dtype=float).reshape(-1, 2)

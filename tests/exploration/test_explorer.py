@@ -892,3 +892,20 @@ def test_the_nearest_view_is_the_nearest_by_path_that_shows_each_cell_asked_once
         assert view[0] == best[0] and np.array_equal(view[1], best[1])
         assert max(dist[round(g[1] / RES), round(g[0] / RES)] for g in asked) <= best[0]
     assert len({tuple(g) for g in asked}) == len(asked) < len(views)
+
+
+def test_a_check_s_region_that_closed_in_the_robot_s_view_is_not_chased_when_it_opens_again():
+    """The door seen edge-on is a goal of the stop's door check. The robot drives to 2 m
+    before it and the region closes (the map now shows the wall whole): the check's goal is
+    blacklisted there. The same region opening again later (a map relearnt at corrected
+    poses) ends the run instead of a second trip; a robot that never came near it would go."""
+    door = room([("right", 36, 44, 1)])
+    explorer = Explorer(ExplorerConfig(method="gp"))
+    first = explorer.plan(door, ROBOT)
+    assert first.goal is not None and explorer.source is explorer.doors
+    near = gtsam.Pose2(first.goal[0] - 2.0, first.goal[1], 0.0)
+    closed = explorer.plan(room(), near)
+    assert closed.goal is None and explorer.looked.covers(first.goal[None]).all()
+    assert explorer.plan(door, near).goal is None
+    fresh = Explorer(ExplorerConfig(method="gp"))
+    assert fresh.plan(door, near).goal is not None
