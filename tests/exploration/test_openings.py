@@ -143,11 +143,12 @@ def test_a_door_flush_with_a_corner_is_a_door_at_a_corner():
 
 
 def test_the_unseen_end_of_a_face_at_a_concave_corner_is_not_a_door_at_a_corner():
-    """The same hits, the face along x = 0 unseen from y = 1.0 m down to the corner: its
-    frontier lies on the room's side of the line, where the free space is; and a frontier past
-    the line of a face whose other end meets no face across it (a step to a face along
-    x = -0.4 m) is no door at a corner either."""
-    hits = np.vstack([wall((0, 1.0), (0, 5)), wall((-3, 0), (3, 0))])
+    """The face along x = 0 unseen from y = 1.0 m down to the corner, where the face along
+    y = 0 ends (past the corner lies the block's inside, which no beam reaches): its frontier
+    lies on the room's side of the line, where the free space is; and a frontier past the line
+    of a face whose other end meets no face across it (a step to a face along x = -0.4 m) is no
+    door at a corner either."""
+    hits = np.vstack([wall((0, 1.0), (0, 5)), wall((0, 0), (3, 0))])
     assert not at_a_corner(hits, region(0.05, 0.1, 0.9))
     step = np.vstack([wall((0, 1.0), (0, 5)), wall((-0.4, -3), (-0.4, 0.6))])
     assert not at_a_corner(step, line((-0.1, 0.95), (-0.35, 0.65)))
@@ -155,12 +156,25 @@ def test_the_unseen_end_of_a_face_at_a_concave_corner_is_not_a_door_at_a_corner(
 
 def test_a_face_bending_off_the_line_of_its_seen_end_is_not_a_door_at_a_corner():
     """lab_a: a face seen along x = 0 from y = 1.0 m up, unseen below, bending 0.18 m past that
-    line by the time it meets the face along y = 0: its frontier follows the bend, and beams
-    must cross the line by more than the robot's radius (0.25 m); the corner door's crossed it
-    by 0.35 m."""
-    hits = np.vstack([wall((0, 1.0), (0, 5)), wall((-3, 0), (3, 0))])
-    assert not at_a_corner(hits, line((-0.02, 0.95), (-0.18, 0.15)))
-    assert at_a_corner(hits, line((-0.05, 0.95), (-0.35, 0.15)))
+    line by the time it meets the face along y = 0, seen up to where the bend meets it: its
+    frontier follows the bend, and beams must cross the line by more than the robot's radius
+    (0.25 m); the corner door's crossed it by 0.35 m."""
+    bent = np.vstack([wall((0, 1.0), (0, 5)), wall((-0.18, 0), (3, 0))])
+    assert not at_a_corner(bent, line((-0.02, 0.95), (-0.18, 0.15)))
+    door_behind = np.vstack([wall((0, 1.0), (0, 5)), wall((-3, 0), (3, 0))])
+    assert at_a_corner(door_behind, line((-0.05, 0.95), (-0.35, 0.15)))
+
+
+def test_a_corner_door_seen_from_along_a_corridor_is_a_door_at_a_corner():
+    """Held-out building_0020: a 0.85 m door flush with the corridor's end wall, seen from 4 m
+    along the corridor. The beams crossed the door's line at 15 degrees, and their free cells'
+    edge lies 0.1-0.2 m past it, less than the robot's radius; but they ended on the end wall
+    0.27 m past it (hits on the face across, behind the line), which no beam reaches round a
+    block's concave corner. The GP run stopped with the 10.6 m² room behind unseen."""
+    hits = np.vstack([wall((0, 0.85), (0, 5)), wall((-0.27, 0), (3, 0))])
+    edge = line((-0.1, 0.8), (-0.2, 0.1))
+    assert not at_a_corner(hits[hits[:, 0] >= 0], edge)
+    assert at_a_corner(hits, edge)
 
 
 def test_the_free_space_behind_a_wall_does_not_decide_a_corner_door_s_side():
