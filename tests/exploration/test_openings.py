@@ -158,7 +158,8 @@ def test_a_face_bending_off_the_line_of_its_seen_end_is_not_a_door_at_a_corner()
     """lab_a: a face seen along x = 0 from y = 1.0 m up, unseen below, bending 0.18 m past that
     line by the time it meets the face along y = 0, seen up to where the bend meets it: its
     frontier follows the bend, and beams must cross the line by more than the robot's radius
-    (0.25 m); the corner door's crossed it by 0.35 m."""
+    (0.25 m); the corner door's crossed it by 0.35 m. (lab_a's face across was seen 0.40 m past
+    the line, from beyond it: that face reads as a door, and the robot goes to look.)"""
     bent = np.vstack([wall((0, 1.0), (0, 5)), wall((-0.18, 0), (3, 0))])
     assert not at_a_corner(bent, line((-0.02, 0.95), (-0.18, 0.15)))
     door_behind = np.vstack([wall((0, 1.0), (0, 5)), wall((-3, 0), (3, 0))])
