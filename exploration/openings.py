@@ -105,10 +105,12 @@ def across_a_corner(points: np.ndarray, hits: cKDTree, reach: float, side: float
     scanned face bends: lab_a's slanted face, unseen for its last metre down to a wall across
     it, bent 0.18 m past the line of its seen end, and its GP run (seed 1) drove 40 m to look
     behind it, so a door's beams must cross the line by more than ``side`` (the robot's radius;
-    the beams through building_0000's corner door, 0.4 m). A face that stands upright where it
-    was seen and slants away unseen down to the wall across it still reads as such a door
-    (lab_a, GP seed 2: 0.38 m past the upright line): from the room, its hits and its frontier
-    are a corner door's."""
+    the beams through building_0000's corner door, 0.4 m). The wall across lab_a's face was
+    seen 0.40 m past that line, so by its hits the face reads as a door and a robot goes to
+    look: a trip, where reading the region alone left held-out building_0020's room. A face
+    that stands upright where it was seen and slants away unseen down to the wall across it
+    still reads as such a door (lab_a, GP seed 2: 0.38 m past the upright line): from the
+    room, its hits and its frontier are a corner door's."""
     ends = _ends(points)
     if ends is None:
         return False
