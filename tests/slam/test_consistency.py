@@ -4,6 +4,7 @@ import math
 
 import gtsam
 import numpy as np
+import pytest
 
 from slam.consistency import revisit_distances, self_consistency, travel
 from wall_scans import cast
@@ -72,3 +73,40 @@ def test_a_revisit_behind_many_scans_of_a_robot_standing_still_is_found():
 def test_travel_is_the_distance_driven():
     poses = [gtsam.Pose2(0, 0, 0), gtsam.Pose2(3, 4, 1), gtsam.Pose2(3, 4, 2), gtsam.Pose2(3, 0, 0)]
     np.testing.assert_allclose(travel(poses), [0, 5, 5, 9])
+
+
+def test_each_point_meets_the_nearest_point_of_the_scans_far_enough_in_travel():
+    # against every pair of points, on a drive down a corridor and half-way back that stops
+    # (equal travel) and turns on the way: the nearest point within the radius among the scans
+    # at least 5 m of travel away, read along its normal (or point to point without one)
+    from slam.config import RegistrationConfig
+    from slam.registration import scan_normals, transform
+
+    rng = np.random.default_rng(4)
+    x = np.concatenate([np.linspace(0.0, 20.0, 41), np.linspace(19.5, 10.0, 20)])
+    x = np.repeat(x, rng.choice([1, 2], size=len(x)))                  # stops
+    truth = [gtsam.Pose2(xi, rng.uniform(0.6, 1.4), rng.uniform(-np.pi, np.pi)) for xi in x]
+    scans = [cast(p, CORRIDOR, n=37, max_range=3.0).points() for p in truth]
+    driven = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(x)))])
+    d = revisit_distances(truth, scans, driven=driven, radius=0.3)
+
+    world = np.concatenate([transform(p, s) for p, s in zip(truth, scans)])
+    normal = np.concatenate([transform(gtsam.Pose2(0, 0, p.theta()), scan_normals(s, RegistrationConfig()))
+                             for p, s in zip(truth, scans)])
+    at = np.concatenate([np.full(len(s), t) for s, t in zip(scans, driven)])
+    pairwise = np.linalg.norm(world[:, None] - world[None], axis=2)
+    pairwise[np.abs(at[:, None] - at[None]) < 5.0] = np.inf
+    q = np.argmin(pairwise, axis=1)
+    seen = pairwise[np.arange(len(world)), q] < 0.3
+    offset = world - world[q]
+    along = np.abs(np.sum(offset * normal[q], axis=1))
+    expected = np.where(np.isfinite(along), along, np.linalg.norm(offset, axis=1))
+    assert 0.2 < seen.mean() < 0.95          # revisits and first visits both
+    np.testing.assert_array_equal(np.isfinite(d), seen)
+    np.testing.assert_allclose(d[seen], expected[seen], rtol=0, atol=1e-12)
+
+
+def test_the_travel_must_not_decrease():
+    believed, scans, driven = two_passes(gtsam.Pose2())
+    with pytest.raises(ValueError, match="driven"):
+        revisit_distances(believed, scans, driven=driven[::-1])
