@@ -372,9 +372,10 @@ class DoorFrontier(GridFrontier):
         (office_d: a 28 m² room was left when its door's region grew from 8 cells as the robot
         came into the doorway)."""
         found = super().frontier(snapshot, near)
+        with_hits = snapshot.hits is not None and len(snapshot.hits) > 0
         longest = door_cells(self.config, snapshot.resolution) + 1
-        regions = tuple(r for r in found.regions if near is not None or region_size(r) <= longest)
-        if snapshot.hits is not None and len(snapshot.hits) and regions:
+        regions = tuple(r for r in found.regions if near is not None or with_hits or region_size(r) <= longest)
+        if with_hits and regions:
             free = classify(evidence(snapshot), self.costmap)[0]
             origin, resolution = np.asarray(snapshot.origin, float), snapshot.resolution
             reach, tolerance = 2 * self.config.robot_radius, math.sqrt(2) * resolution

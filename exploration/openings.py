@@ -209,15 +209,21 @@ def _in_gap(points: np.ndarray, hits: np.ndarray, centre: np.ndarray, direction:
     """Does the region ``points`` (k, 2) span at least ``side`` m of the line through
     ``centre`` along ``direction``, with ``hits`` (m, 2) within ``tolerance`` m of the line
     running along it for ``side`` m either side of the span and none within it? Meters."""
-    wall = hits - centre
-    on = np.abs(wall[:, 0] * direction[1] - wall[:, 1] * direction[0]) <= tolerance
-    at = wall[on] @ direction
+    def on_line(xy: np.ndarray) -> np.ndarray:
+        offset = xy - centre
+        return np.abs(offset[:, 0] * direction[1] - offset[:, 1] * direction[0]) <= tolerance
+
+    at = (hits[on_line(hits)] - centre) @ direction
     span = (points - centre) @ direction
-    low, high = span.min(), span.max()
-    before, after = at[at < low], at[at > high]
-    inside = (at > low + tolerance) & (at < high - tolerance)
-    return bool(high - low >= side and not inside.any() and len(before) and len(after)
-                and np.ptp(before) >= side and np.ptp(after) >= side)
+    on = on_line(points)
+    for along in (span, span[on]) if 0 < np.count_nonzero(on) < len(on) else (span,):
+        low, high = along.min(), along.max()
+        before, after = at[at < low], at[at > high]
+        inside = (at > low + tolerance) & (at < high - tolerance)
+        if (high - low >= side and not inside.any() and len(before) and len(after)
+                and np.ptp(before) >= side and np.ptp(after) >= side):
+            return True
+    return False
 
 
 def _ends(points: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:

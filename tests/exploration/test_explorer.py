@@ -986,3 +986,24 @@ def test_a_check_s_region_that_closed_in_the_robot_s_view_is_not_chased_when_it_
     assert explorer.plan(door, near).goal is None
     fresh = Explorer(ExplorerConfig(method="gp"))
     assert fresh.plan(door, near).goal is not None
+
+
+def test_a_door_whose_frontier_runs_on_past_its_far_jamb_is_checked():
+    """A 0.8 m door in the right wall (rows 36-43, y 3.6-4.3 m) seen edge-on, its frontier in the
+    doorway and running on past the far jamb beside the wall beyond (rows 44-47, x 8.2 m): a
+    region of 12 cells, longer than a door's widest (held-out building_0027: a 0.9 m door whose
+    region ran 0.3 m past its jamb under the 0.45 m of wall to the corridor's corner, and the
+    10 m² room behind it was left). The COM reads the unknown past it free, as in the test
+    above, so only the door check can take it: a region of any length whose cells on the wall's
+    line lie in a gap of its hits is a door, and the robot goes to look."""
+    snapshot = room()
+    snapshot.prob[36:44, 80:82], snapshot.prob_occ[36:44, 80:82] = FREE, FREE_OCC
+    snapshot.prob[44:48, 82], snapshot.prob_occ[44:48, 82] = FREE, FREE_OCC
+    snapshot = with_wall_hits(snapshot)
+    grid = snapshot.prob.copy()
+    snapshot.prob[30:52, 83:88] = 0.2
+    snapshot = dataclasses.replace(snapshot, traversable=grid)
+    config = ExplorerConfig(method="gp")
+    assert [len(r) for r in DoorFrontier(config).frontier(snapshot).regions] == [12]
+    plan = Explorer(config).plan(snapshot, ROBOT)
+    assert plan.done is None and 7.2 <= plan.goal[0] <= 8.2 and 3.5 <= plan.goal[1] <= 4.4, plan.goal
