@@ -328,8 +328,9 @@ class MissedByF(GridFrontier):
 
 class DoorFrontier(GridFrontier):
     """The stop's check, for both methods, once theirs finds no reachable frontier: frontier
-    regions of the evidence grid as long as a door, from the robot's diameter (the narrowest
-    way on it can take) to a door's longest width (``door_width``, 1 m; its length by
+    regions of the evidence grid from the robot's diameter (the narrowest way on it can take)
+    that the laser's endpoints read as an opening (``exploration.openings``), of any length,
+    or without endpoints as long as a door at most (``door_width``, 1 m; its length by
     ``region_size``), reachable, whose look from their goal shows ``min_gain`` of the unknown
     space behind them (``through_door``), the nearest by path first.
 
@@ -337,11 +338,13 @@ class DoorFrontier(GridFrontier):
     of view: it leaves a frontier as long as the door is wide, shorter than the C-frontier's
     clusters count and ``MissedByF``'s regions (a door's longest width), and below F's
     threshold where the COM smooths the gap shut. office_f's four end rooms (65 m²) were left
-    so by both methods (the grid method's smallest region was then 1 m). Longer regions stay
-    the methods' business: checking every gap a grazed wall leaves in its hits drove the Stage
-    cave's runs farther for nothing (GP 62 -> 83 m). A 1 m door seen edge-on at a corner leaves
-    a region of 10 cells on a slant (building_0014: 0.97 m long), which the C-frontier's
-    checks took for neither a door nor a method's region.
+    so by both methods (the grid method's smallest region was then 1 m). Before the endpoints
+    were read, longer regions were left to the methods: checking every gap a grazed wall
+    leaves in its hits drove the Stage cave's runs farther for nothing (GP 62 -> 83 m). Read
+    by them, a door's region may be longer than the door: beams through held-out
+    building_0027's 0.9 m door, seen edge-on, freed cells on past its far jamb beside the
+    0.45 m of wall to the corridor's corner, a region of 13 cells, and its GP run left the
+    10 m² room behind it (95.3 %).
 
     The unknown space behind a region may be enclosed by seen walls: a room whose every wall
     was seen from outside is enclosed as a block's inside is, and nothing the robot has seen
@@ -367,7 +370,7 @@ class DoorFrontier(GridFrontier):
         return max(1, math.floor(2 * self.config.robot_radius / resolution + 1e-9))
 
     def frontier(self, snapshot: MapSnapshot, near: tuple[np.ndarray, float] | None = None) -> Frontier:
-        """The door-sized regions; with ``near``, those of any length near a kept goal
+        """The regions that read as openings; with ``near``, those near a kept goal
         (``keeping``): a door's region lengthens as the robot nears it and sees past
         (office_d: a 28 m² room was left when its door's region grew from 8 cells as the robot
         came into the doorway)."""

@@ -58,6 +58,19 @@ def test_a_gap_in_a_straight_wall_is_a_door():
     assert door(hits, region(0.0, 2.1, 2.7))
 
 
+def test_a_door_whose_frontier_runs_on_past_its_far_jamb_is_a_door():
+    """A wall along x = 0 with a 0.9 m door (y 2.0-2.9 m), 0.45 m of wall past it (a 0.15 m
+    thick stub, its end seen through the door) to a face across at y = 3.35 m, as held-out
+    building_0027's door was seen edge-on from along the corridor (x < 0): the beams freed cells
+    in the doorway and on past the jamb, stepping off the line under the stub. The whole
+    region's span along the line holds the stub's hits; its cells on the line lie in the gap."""
+    hits = np.vstack([wall((0, 0), (0, 2.0)), wall((0, 2.9), (0, 3.35)), wall((0, 2.9), (0.15, 2.9)),
+                      wall((0, 3.35), (-2.0, 3.35))])
+    points = np.vstack([region(0.0, 2.05, 2.45), region(0.1, 2.55, 2.65), region(0.2, 2.75, 3.15)])
+    assert door(hits, points)
+    assert not door(hits, points[points[:, 1] > 2.5])      # its part under the stub alone
+
+
 def test_the_unseen_end_of_a_face_meeting_a_face_across_it_is_no_door():
     """A face along x = 0 down to y = 2.8 m, unseen from there to the face along y = 2.0 m
     that it meets in a concave corner at (0, 2), that face running on beyond the corner or not:
