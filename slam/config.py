@@ -122,7 +122,8 @@ class LoopClosureConfig(_Config):
     """Candidate search, Pose SLAM gates, and verification of loop closures."""
 
     enabled: bool = Field(True, description="search for loop closures at all")
-    search_radius: float = Field(8.0, gt=0, description="Euclidean pre-gate (m)")
+    search_radius: float = Field(8.0, gt=0, description="Euclidean pre-gate (m); with match_radius "
+                                 "it bounds the correlative window_xy a candidate needs")
     min_keyframe_gap: int = Field(30, ge=1, description="skip the most recent keyframes")
     match_radius: float = Field(3.0, gt=0, description="scans match if poses closer than this (m)")
     max_yaw_difference_deg: float = Field(180.0, gt=0, le=180,
@@ -139,9 +140,13 @@ class LoopClosureConfig(_Config):
     coarse_inlier_distance: float = Field(0.3, gt=0, description="m: scoring the coarse starts")
     coarse_accept: float = Field(0.85, gt=0, le=1, description="a coarse start scoring this stops the search")
     correlative: CorrelativeConfig = Field(
-        CorrelativeConfig(window_xy=5.0, window_deg=180.0, levels=7, min_score=0.6),
+        CorrelativeConfig(window_xy=11.0, window_deg=180.0, levels=7, min_score=0.6),
         description="the search where the graph's guess is poor (after metres of drift): its window is "
-        "3 σ of the predicted relative pose, at least poor_guess_sigma, at most these windows")
+        "3 σ of the predicted relative pose, at least poor_guess_sigma, at most these windows. ± 11 m "
+        "is search_radius + match_radius, the farthest a candidate the gates admit can be from its "
+        "prediction: a window short of it misses the loops the gates let through (the Infinite "
+        "Corridor's first return to its start, 5.2-5.9 m off after 700 m: with ± 5 m, 1 mm of range "
+        "noise decided whether it closed, and replays ended 0.2-1.8 m apart)")
     poor_guess_sigma: list[PositiveFloat] = Field(
         [0.25, 0.25, 0.087], min_length=3, max_length=3,
         description="σ (m, m, rad) of the predicted relative pose beyond which the guess is poor: the "

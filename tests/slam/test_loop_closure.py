@@ -153,6 +153,28 @@ def test_verify_accepts_a_true_revisit_and_recovers_the_relative_pose():
     assert not detector.rejected
 
 
+def test_a_loop_metres_beyond_the_graphs_guess_is_found_by_the_correlative_search():
+    # the first return to the start after a long drive: the graph's guess is 6 m off, and its
+    # covariance says so (σ 3 m). A true loop among the candidates the gates admit lies within
+    # search_radius + match_radius (11 m) of its prediction, and the search must reach it
+    # (± 5 m did not: the Infinite Corridor's first return, 5.2-5.9 m off)
+    drift = gtsam.Pose2(6.0, 0.8, math.radians(2.0))
+    truth, graph, features, n = revisit(drift, np.array([0.5, 0.5, 0.004]), keyframes=FACING_DOOR + 1)
+    k = n + FACING_DOOR
+    c = LoopClosureConfig()
+    assert c.correlative.window_xy >= c.search_radius + c.match_radius
+    detector = LoopClosureDetector(c)
+    candidates = detector.candidates(graph, k)
+    assert candidates
+    for candidate in candidates:
+        true = truth[candidate.j].between(truth[k])
+        assert off(true, candidate.predicted)[0] > 6.0 and np.sqrt(candidate.covariance[0, 0]) > 3.0
+        loop = detector.verify(candidate, graph, features)
+        assert loop is not None and loop.searched
+        dxy, dtheta = off(true, loop.match.pose)
+        assert dxy < TOL_XY and dtheta < TOL_THETA
+
+
 def test_reverse_registration_rejects_a_loop_biased_by_a_broken_submap(monkeypatch):
     # the first lap's link into keyframe 14 slipped 0.28 m and 8°: the submap round j = 11 (its
     # keyframes 6..16) is two pieces that do not fit, and the forward registration settles
