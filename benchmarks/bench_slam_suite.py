@@ -7,10 +7,13 @@ Prints, never asserts, per log: scans, keyframes and loop closures; the real-tim
 Pose SLAM and its wall time against the scan-matching front end alone (loop closing off) in the
 same run; for GMapping-corrected logs, the agreement with GMapping's poses after SE(2) alignment,
 matched by scan order (RMSE, p95, max, heading RMSE: GMapping's maps are good, but not ground
-truth); the map's self-consistency, which needs no reference (``slam.consistency``: how far
-each scan point lies from the surfaces the scans 5 m of travel away saw there; median and p90,
-and beside them GMapping's poses' on a corrected log, so that a disagreement with GMapping can
-be told from a worse map); for MIT CSAIL, the Kümmerle relation error (mean, short/long, p95,
+truth), and the scale and RMSE of the best similarity alignment (a difference of scale alone is
+a longer or shorter trajectory throughout, such as the distance along a featureless corridor,
+which is the wheels'); the map's self-consistency, which needs no reference
+(``slam.consistency``: how far each scan point lies from the surfaces the scans 5 m of travel
+away saw there; median and p90, and beside them GMapping's poses' on a corrected log, and our
+poses' scaled to GMapping's scale, so that a disagreement with GMapping can be told from a worse
+map, and the scans say whose scale they support); for MIT CSAIL, the Kümmerle relation error (mean, short/long, p95,
 max). With
 ``--perturb N``, N more replays with the ranges perturbed by seeded 1 mm Gaussian noise: the
 largest trajectory RMSE between a perturbed replay and the clean one, and the spread (max − min)
@@ -34,6 +37,7 @@ import time
 import traceback
 from pathlib import Path
 
+import gtsam
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -92,14 +96,18 @@ def row(path: Path, relations_dir: Path, perturb: int, seed: int, config: SlamCo
         a = agreement(full.trajectory, [r.pose for r in log])
         f = agreement(front.trajectory, [r.pose for r in log])
         out.append(f"  vs GMapping: RMSE {a['rmse_m']:.3f} m, p95 {a['p95_m']:.3f}, max {a['max_m']:.3f}, "
-                   f"heading RMSE {a['rot_rmse_deg']:.2f} deg (front end alone: RMSE {f['rmse_m']:.3f} m, "
+                   f"heading RMSE {a['rot_rmse_deg']:.2f} deg; GMapping's scale {a['scale']:.4f}, similarity "
+                   f"RMSE {a['similarity_rmse_m']:.3f} m (front end alone: RMSE {f['rmse_m']:.3f} m, "
                    f"max {f['max_m']:.3f})")
     c = m["self_consistency"]
     line = (f"  self-consistency: {100 * c['revisited']:.0f} % of points seen again, "
             f"{_cm(c['median_m'])} median, {_cm(c['p90_m'])} p90")
     if corrected:
         g = log_consistency(log, [r.pose for r in log], full.slam)
-        line += f" (GMapping's poses: {_cm(g['median_m'])}, {_cm(g['p90_m'])})"
+        at_scale = log_consistency(log, [gtsam.Pose2(a["scale"] * p.x(), a["scale"] * p.y(), p.theta())
+                                         for p in full.trajectory], full.slam)
+        line += (f" (GMapping's poses: {_cm(g['median_m'])}, {_cm(g['p90_m'])}; ours at GMapping's scale: "
+                 f"{_cm(at_scale['median_m'])}, {_cm(at_scale['p90_m'])})")
     out.append(line)
     relations = relations_dir / (path.name.split(".")[0] + ".relations")
     if relations.exists():

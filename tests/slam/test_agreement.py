@@ -37,3 +37,19 @@ def test_one_displaced_pose_is_the_maximum():
 def test_lengths_must_match():
     with pytest.raises(ValueError, match="3 estimated poses for 2"):
         agreement([gtsam.Pose2()] * 3, [gtsam.Pose2()] * 2)
+
+
+def test_a_scaled_trajectory_differs_in_scale_alone():
+    """The reference shrunk by k about a point, then moved rigidly: the similarity's scale is
+    1 / k and it leaves nothing; the rigid alignment leaves each pose (1 - k) times its distance
+    from the centroid, which no rotation or shift reduces."""
+    rng = np.random.default_rng(1)
+    xy = rng.uniform(-20, 20, (60, 2))
+    reference = [gtsam.Pose2(x, y, t) for (x, y), t in zip(xy, rng.uniform(-3, 3, 60))]
+    k, frame = 0.995, gtsam.Pose2(-4.0, 2.5, 0.7)
+    estimate = [frame.compose(gtsam.Pose2(k * p.x(), k * p.y(), p.theta())) for p in reference]
+    a = agreement(estimate, reference)
+    assert a["scale"] == pytest.approx(1 / k, abs=1e-12) and a["similarity_rmse_m"] < 1e-9
+    radius = np.linalg.norm(xy - xy.mean(axis=0), axis=1)
+    assert a["rmse_m"] == pytest.approx((1 - k) * np.sqrt(np.mean(radius ** 2)), rel=1e-9)
+    assert a["rot_max_deg"] < 1e-9
