@@ -13,14 +13,14 @@ which is the wheels'); the map's self-consistency, which needs no reference
 (``slam.consistency``: how far each scan point lies from the surfaces the scans 5 m of travel
 away saw there; median and p90, and beside them GMapping's poses' on a corrected log, and our
 poses' scaled to GMapping's scale, so that a disagreement with GMapping can be told from a worse
-map, and the scans say whose scale they support); for MIT CSAIL, the Kümmerle relation error (mean, short/long, p95,
-max). With
-``--perturb N``, N more replays with the ranges perturbed by seeded 1 mm Gaussian noise: the
-largest trajectory RMSE between a perturbed replay and the clean one, and the spread (max − min)
-of their agreement with GMapping. A crash is a row too, with its error. ``--config`` replays with
-the ``[stack.slam]`` section of a configuration file, as ``gpexplore replay --config`` does (TOML
-or YAML: ``gpexplore config dump`` writes one, a run's config.toml is one), instead of the
-defaults; a bad file stops the benchmark before any replay, naming the file and the key.
+map, and the scans say whose scale they support); for MIT CSAIL, the Kümmerle relation error
+(mean, short/long, p95, max). With ``--perturb N``, N more replays with the ranges perturbed by
+seeded 1 mm Gaussian noise: the largest trajectory RMSE between a perturbed replay and the clean
+one, and the spread (max − min) of their agreement with GMapping. A crash is a row too, with its
+error. ``--config`` replays with the ``[stack.slam]`` section of a configuration file, as
+``gpexplore replay --config`` does (TOML or YAML: ``gpexplore config dump`` writes one, a run's
+config.toml is one), instead of the defaults; a bad file stops the benchmark before any replay,
+naming the file and the key.
 
 Targets (issue 12): 0 crashes; agreement RMSE ≤ 0.10 m and max ≤ 0.5 m on each corrected log;
 CSAIL ≤ 0.025 m / 0.33° mean, worst relation ≤ 0.3 m; perturbed replays within 0.05 m; on
