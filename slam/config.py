@@ -3,8 +3,10 @@ the MIT CSAIL log and on the simulator's 8 m / 180° Stage-like laser."""
 
 from __future__ import annotations
 
+import warnings
+
 import gtsam
-from pydantic import BaseModel, ConfigDict, Field, FiniteFloat, PositiveFloat
+from pydantic import BaseModel, ConfigDict, Field, FiniteFloat, PositiveFloat, model_validator
 
 
 class _Config(BaseModel):
@@ -177,6 +179,19 @@ class LoopClosureConfig(_Config):
         "are overconfident: at 0.999 (16.3) it took true loops out in the simulated office")
     extra_updates: int = Field(4, ge=0, description="iSAM2 iterations after a loop closure")
     moved_threshold: float = Field(0.05, ge=0, description="m: a loop moving a keyframe more fires the event")
+
+    @model_validator(mode="after")
+    def _window_reaches_the_gates(self) -> LoopClosureConfig:
+        """Warn when the correlative window is shorter than search_radius + match_radius: the
+        gates then admit loops the search cannot reach. A warning, not an error: a configuration
+        written before the window was widened (± 5 m) still runs as it ran."""
+        reach = self.search_radius + self.match_radius
+        if self.enabled and self.correlative.window_xy < reach:
+            warnings.warn(f"loop_closure.correlative.window_xy = {self.correlative.window_xy} m is "
+                          f"shorter than search_radius + match_radius = {reach} m: loops the gates "
+                          f"admit farther than that from the graph's guess are not found",
+                          UserWarning, stacklevel=2)
+        return self
 
 
 class BackEndConfig(_Config):

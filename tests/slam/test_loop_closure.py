@@ -11,13 +11,15 @@ while every wrong answer here (the graph's prediction, the twin room) is ≥ 0.1
 """
 
 import math
+import warnings
 from dataclasses import replace
 
 import gtsam
 import numpy as np
+import pytest
 
 from slam.back_end import PoseGraph
-from slam.config import LoopClosureConfig, RegistrationConfig, SlamConfig
+from slam.config import CorrelativeConfig, LoopClosureConfig, RegistrationConfig, SlamConfig
 from slam.localiser import Localisation
 from slam.loop_closure import Candidate, LoopClosureDetector
 from slam.pose_slam import PoseSlam
@@ -151,6 +153,22 @@ def test_verify_accepts_a_true_revisit_and_recovers_the_relative_pose():
         assert dxy < TOL_XY and dtheta < TOL_THETA
         assert loop.match.inlier_fraction > 0.95 and len(loop.match.degenerate) == 0
     assert not detector.rejected
+
+
+def test_a_window_short_of_the_gates_is_warned_about():
+    # the gates admit a loop up to search_radius + match_radius from its prediction; a window
+    # left shorter (a configuration written before it was widened, or a search_radius raised
+    # alone) misses those loops, and the user is told which settings disagree
+    with pytest.warns(UserWarning, match=r"window_xy = 5\.0 m is shorter than search_radius \+ "
+                      r"match_radius = 11\.0 m"):
+        LoopClosureConfig(correlative=CorrelativeConfig(window_xy=5.0))
+    with pytest.warns(UserWarning, match=r"window_xy = 11\.0 m .* = 12\.0 m"):
+        LoopClosureConfig(search_radius=9.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        LoopClosureConfig()
+        LoopClosureConfig(search_radius=8.0, match_radius=3.0)
+        LoopClosureConfig(enabled=False, search_radius=20.0)
 
 
 def test_a_loop_metres_beyond_the_graphs_guess_is_found_by_the_correlative_search():
