@@ -159,6 +159,7 @@ def demo(
     from sim.tour import demo_tour
     from sim.worlds import BUILTIN_WORLDS
     from slam.atomic import write_json_atomic
+    from slam.provenance import software
     from slam.tum import write_tum
 
     _claim_out(out, "demo", overwrite)
@@ -166,7 +167,7 @@ def demo(
     log, m = demo_tour(builtin, seed, progress=True)
     write_tum(out / "ground_truth.tum", log.stamps, log.truth)
     write_tum(out / "odometry.tum", log.stamps, log.odometry)
-    write_json_atomic(out / "metrics.json", m)
+    write_json_atomic(out / "metrics.json", {**m, "software": software()})
     tour_figure(out / "figures" / "tour.png", builtin.world, log)
     console.print(f"{m['steps']} scans, {m['travel_distance_m']:.1f} m in {m['sim_time_s']:.0f} s of robot "
                   f"time ({m['wall_time_s']:.1f} s wall), {m['collisions']} collisions, odometry drift "
@@ -201,6 +202,7 @@ def map_(
     from sim.config_file import CONFIG_NAME, write_config
     from sim.logs import map_log
     from slam.atomic import write_json_atomic
+    from slam.provenance import software
     from slam.replay import replay_metrics, write_trajectory_and_graph
 
     _check_out(out, "map", overwrite)
@@ -220,7 +222,7 @@ def map_(
         write_trajectory_and_graph(out, run.replay)
         metrics["slam"] = replay_metrics(records, run.replay)
         console.print(_replay_summary(metrics["slam"]))
-    metrics.update(run.metrics)
+    metrics.update(run.metrics, software=software())
     com = run.map.com
     write_config(out / CONFIG_NAME, cfg)
     save_com(out / "com.npz", com)

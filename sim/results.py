@@ -19,6 +19,7 @@ from sim.figures import entropy_figure, frontier_figure, map_figure
 from sim.world_io import start_area
 from slam.atomic import write_json_atomic, write_text_atomic
 from slam.pose_slam import PoseSlam
+from slam.provenance import software
 from slam.poses import positions
 from slam.tum import write_tum
 
@@ -136,7 +137,7 @@ def write_episode(out: str | Path, result: EpisodeResult, progress: bool = False
         save_com(out / "com.npz", stack.map)
     write_ros_map(out / "map.pgm", prob, stack.map.frame.origin, stack.map.frame.resolution)
     _figures(out / "figures", result, prob, progress)
-    write_json_atomic(out / "metrics.json", {**result.metrics, **start_metrics(result)})
+    write_json_atomic(out / "metrics.json", {**result.metrics, **start_metrics(result), "software": software()})
 
 
 def start_metrics(result: EpisodeResult) -> dict:

@@ -14,6 +14,7 @@ from slam.consistency import revisit_distances, self_consistency, travel
 from slam.evaluation import read_relations, relation_error
 from slam.laser_log import LaserLog, LaserMount
 from slam.pose_slam import PoseSlam
+from slam.provenance import software
 from slam.poses import positions
 from slam.tum import write_tum
 
@@ -38,7 +39,7 @@ def write_replay(out: str | Path, log: LaserLog, result: ReplayResult,
     write_trajectory_and_graph(out, result)
     if isinstance(log, CarmenLog):
         write_corrected_log(out / "corrected.clf", log, result.trajectory, result.slam.laser_offset)
-    metrics = {"log": str(log.path), **replay_metrics(log, result)}
+    metrics = {"log": str(log.path), **replay_metrics(log, result), "software": software()}
     if relations is not None:
         odometry = [r.odometry for r in log]
         error = relation_error(read_relations(relations), result.stamps, result.trajectory,

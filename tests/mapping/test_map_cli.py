@@ -206,6 +206,7 @@ def test_intel_log_heldout_auc(intel_maps):
     """The whole Intel log with its poses: the issue's target, AUC >= 0.995 read continuously."""
     metrics, out = intel_maps["log"]
     assert metrics["keyframes"] == 910 and metrics["holdout"]["protocol"] == "points"
+    assert metrics["software"]["packages"]["numpy"] == np.__version__     # what it was computed with
     assert metrics["auc"] >= 0.995                      # measured 0.9956
     assert metrics["auc_cell"] > 0.992                  # measured 0.9944
     assert np.isfinite(np.load(out / "com.npz")["prob"]).all()

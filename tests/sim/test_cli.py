@@ -36,6 +36,7 @@ def test_demo_writes_results(tmp_path):
     assert result.exit_code == 0, result.output
     metrics = json.loads((tmp_path / "metrics.json").read_text())
     assert metrics["collisions"] == 0 and metrics["steps"] > 500
+    assert metrics["software"]["packages"]["numpy"] == np.__version__
     assert (tmp_path / "figures" / "tour.png").stat().st_size > 10_000
     stamps, truth = read_tum(tmp_path / "ground_truth.tum")
     _, odometry = read_tum(tmp_path / "odometry.tum")
@@ -98,6 +99,7 @@ def test_explore_writes_every_result(tmp_path, method):
     assert metrics["termination_reason"] in ("frontiers_exhausted", "no_reachable_goal")
     assert metrics["coverage"] > 0.95 and metrics["collisions"] == 0
     assert metrics["start_enclosed"] is False and metrics["warnings"] == [] and metrics["reachable_area_m2"] > 5
+    assert metrics["software"]["packages"]["numpy"] == np.__version__     # what it was computed with
     products = ["trajectory.tum", "ground_truth.tum", "graph.g2o", "map.pgm", "map.yaml",
                 "figures/map_trajectory.png", "figures/frontier_maps.png", "figures/entropy.png"]
     if method == "gp":

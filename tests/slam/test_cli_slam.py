@@ -2,6 +2,7 @@
 
 import json
 
+import numpy as np
 from typer.testing import CliRunner
 
 from sim.cli import app
@@ -70,6 +71,7 @@ def test_replay_small_log_with_foreign_relations(tmp_path, shared_data):
     assert result.exit_code == 0, result.output
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["scans"] == 150 and (out / "trajectory.png").exists()
+    assert metrics["software"]["packages"]["numpy"] == np.__version__     # what it was computed with
 
 
 def test_replay_config_file_is_validated(tmp_path, shared_data):
