@@ -2,8 +2,8 @@
 
 The runs are chaotic: decisions at hard thresholds flip on differences in the last bits and
 cascade, so the same commit and seed on two machines can end differently (office_g's seed-0 runs
-after a reinstall, 2026-11-24; lab_e's GP seed 1 at 64.9 % on one machine and 99.9 % on another
-at 6804015). A result therefore names the commit, the versions of the libraries whose arithmetic
+after a reinstall, 2026-11-24; lab_e's GP seed 1, the same code, at 64.9 % on one machine on
+2026-12-01 and at 99.9 % on another the next day). A result therefore names the commit, the versions of the libraries whose arithmetic
 it rests on, and the processor.
 """
 
